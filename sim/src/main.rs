@@ -1,0 +1,4 @@
+//! `mgmot-sim`: simulated autopilot and maritime frame generator (work in progress).
+fn main() {
+    println!("mgmot-sim");
+}

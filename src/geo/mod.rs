@@ -1,0 +1,1 @@
+//! Geometry (placeholder, being written).

@@ -1,0 +1,6 @@
+//! The `mgmot` command line: a thin shell over the library.
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
+}
