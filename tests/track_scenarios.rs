@@ -297,6 +297,20 @@ fn two_classes_are_never_merged() {
     assert!(ids[&0].is_disjoint(&ids[&1]));
     let off = offline_ids(&frames, &truth, &TrackerParams::default());
     assert!(off[&0].is_disjoint(&off[&1]), "{off:?}");
+
+    // Control: were the boat a swimmer, it would be linked (only the class keeps them apart).
+    let mut same = Scene {
+        objects: scene.objects.clone(),
+        camera: pan_away_and_back,
+        with_world: true,
+    };
+    same.objects[1].class_id = 1;
+    let (frames, truth) = same.frames(30 * 24);
+    let (ids, merges) = online_ids(&frames, &truth, TrackerParams::default());
+    assert_eq!(merges, 1);
+    // the second object is reported under its own id for w frames, then under the first's
+    assert_eq!(ids[&0].len(), 1);
+    assert!(ids[&1].is_superset(&ids[&0]));
 }
 
 #[test]
@@ -322,6 +336,12 @@ fn short_gap_inside_view_is_relinked_by_short_term_reid() {
         .unwrap();
     assert_eq!(last.tracks[0].id, *ids[&0].iter().min().unwrap());
     assert_eq!(offline_ids(&frames, &truth, &p)[&0].len(), 1);
+
+    // Control: the gap is longer than the lost buffer, so the baseline alone splits it.
+    let mut no_reid = p.clone();
+    no_reid.reid.enabled = false;
+    assert_eq!(online_ids(&frames, &truth, no_reid.clone()).0[&0].len(), 2);
+    assert_eq!(offline_ids(&frames, &truth, &no_reid)[&0].len(), 2);
 }
 
 #[test]
@@ -342,6 +362,15 @@ fn no_merge_beyond_the_world_distance_gate() {
     assert!(ids[&0].is_disjoint(&ids[&1]));
     let off = offline_ids(&frames, &truth, &TrackerParams::default());
     assert!(off[&0].is_disjoint(&off[&1]));
+
+    // Control: with a 25 m gate the same scene is linked.
+    let mut wide = TrackerParams::default();
+    wide.reid.classes.get_mut(&1).unwrap().tau_match_m = 25.0;
+    let (ids, merges) = online_ids(&frames, &truth, wide);
+    assert_eq!(merges, 1);
+    // the second object is reported under its own id for w frames, then under the first's
+    assert_eq!(ids[&0].len(), 1);
+    assert!(ids[&1].is_superset(&ids[&0]));
 }
 
 #[test]
@@ -413,7 +442,10 @@ fn out_of_order_frames_are_rejected() {
     tracker.step(&f(4)).unwrap();
 }
 
-fn random_scene() -> impl Strategy<Value = (Vec<(u32, f64, f64, f64, f64, u64, u64)>, bool)> {
+/// Random object: class, north, east, v_north, v_east, first missed frame, missed length.
+type ObjSpec = (u32, f64, f64, f64, f64, u64, u64);
+
+fn random_scene() -> impl Strategy<Value = (Vec<ObjSpec>, bool)> {
     (
         prop::collection::vec(
             (
@@ -431,7 +463,7 @@ fn random_scene() -> impl Strategy<Value = (Vec<(u32, f64, f64, f64, f64, u64, u
     )
 }
 
-fn build(objs: &[(u32, f64, f64, f64, f64, u64, u64)], pan: bool) -> Vec<FrameInput> {
+fn build(objs: &[ObjSpec], pan: bool) -> Vec<FrameInput> {
     let scene = Scene {
         objects: objs
             .iter()

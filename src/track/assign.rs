@@ -53,7 +53,7 @@ pub(crate) fn solve_gated(
 /// Marks every entry above `gate` as forbidden (used for the IoU gates).
 pub(crate) fn apply_gate(cost: &mut [f64], gate: f64) {
     for c in cost.iter_mut() {
-        if !(*c <= gate) {
+        if c.is_nan() || *c > gate {
             *c = f64::INFINITY;
         }
     }

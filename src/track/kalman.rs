@@ -168,7 +168,7 @@ mod tests {
         let mut kf = BoxKalman::initiate(&BBox::new(0.0, 0.0, 20.0, 20.0));
         for k in 1..40 {
             kf.predict(1.0);
-            assert!(kf.update(&BBox::new(3.0 * k as f64, -1.0 * k as f64, 20.0, 20.0)));
+            assert!(kf.update(&BBox::new(3.0 * k as f64, -(k as f64), 20.0, 20.0)));
         }
         assert_relative_eq!(kf.mean[4], 3.0, epsilon = 0.05);
         assert_relative_eq!(kf.mean[5], -1.0, epsilon = 0.05);

@@ -245,8 +245,8 @@ fn interpolate(points: &mut Vec<Point>, frames: &[FrameInput], max_gap_frames: u
         if b.pos <= a.pos + 1 || missing == 0 || missing > max_gap_frames {
             continue;
         }
-        for pos in a.pos + 1..b.pos {
-            let s = (frames[pos].frame_index - fa) as f64 / (fb - fa) as f64;
+        for (pos, frame) in frames.iter().enumerate().take(b.pos).skip(a.pos + 1) {
+            let s = (frame.frame_index - fa) as f64 / (fb - fa) as f64;
             filled.push(Point {
                 pos,
                 bbox: a.bbox.lerp(&b.bbox, s),
