@@ -4,7 +4,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, Tracker, TrackerParams, WorldObservation,
+    track_sequence, BBox, Detection, FrameInput, TrackState, Tracker, TrackerParams,
+    WorldObservation,
 };
 use nalgebra::{Matrix2, Matrix3, Vector2};
 use proptest::prelude::*;
@@ -424,6 +425,29 @@ fn world_state_estimates_velocity() {
         (w.pos_ne_m - Vector2::new(0.5, 1.0) * (119.0 / FPS) - Vector2::new(0.0, -20.0)).norm()
             < 0.2
     );
+}
+
+#[test]
+fn live_tracks_report_lost_state_with_predicted_world() {
+    let mut s = swimmer(0.0, 0.0, 0.0, 1.0);
+    s.missed = 60..1000;
+    let scene = Scene {
+        objects: vec![s],
+        camera: static_camera,
+        with_world: true,
+    };
+    let (frames, _) = scene.frames(90);
+    let mut tracker = Tracker::new(TrackerParams::default()).unwrap();
+    for f in &frames {
+        tracker.step(f).unwrap();
+    }
+    let live: Vec<_> = tracker.live_tracks().collect();
+    assert_eq!(live.len(), 1);
+    assert_eq!(live[0].state, TrackState::Lost);
+    assert!(live[0].detection_index.is_none());
+    // last seen at frame 59, predicted to frame 89 at 1 m/s east
+    let w = live[0].world.unwrap();
+    assert!((w.pos_ne_m.y - 89.0 / FPS).abs() < 0.2, "{w:?}");
 }
 
 #[test]

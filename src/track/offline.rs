@@ -99,7 +99,10 @@ pub fn track_sequence(
                 score: t.score,
                 class_id: Some(det.map_or(t.class_id, |d| d.class_id)),
                 world: t.world,
-                obs_ne_m: det.and_then(|d| d.world).map(|w| w.pos_ne_m),
+                obs_ne_m: det
+                    .and_then(|d| d.world)
+                    .map(|w| w.pos_ne_m)
+                    .filter(|p| p.iter().all(|v| v.is_finite())),
                 interpolated: false,
             });
         }

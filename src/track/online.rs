@@ -177,6 +177,33 @@ impl Tracker {
         self.tracks.len()
     }
 
+    /// Every track the tracker keeps after the last step, in any state (the step output
+    /// holds the confirmed ones only): lost tracks report their Kalman-predicted box and
+    /// their world state predicted to the last frame's time, with no detection.
+    pub fn live_tracks(&self) -> impl Iterator<Item = TrackOutput> + '_ {
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        self.tracks.iter().map(move |t| {
+            let state = match (t.phase, t.activated) {
+                (Phase::Tracked, true) => TrackState::Confirmed,
+                (Phase::Tracked, false) => TrackState::Tentative,
+                (Phase::Lost, _) => TrackState::Lost,
+                (Phase::Removed, _) => TrackState::Removed,
+            };
+            TrackOutput {
+                id: t.id,
+                bbox: t.kf.bbox(),
+                score: t.score,
+                class_id: t.class_id(),
+                state,
+                world: t
+                    .world
+                    .as_ref()
+                    .map(|w| w.predicted(self.last_time_s, accel)),
+                detection_index: t.matched_det,
+            }
+        })
+    }
+
     /// Processes one frame. Frames must come in increasing `frame_index` order; an
     /// out-of-order frame is rejected without changing the tracker.
     pub fn step(&mut self, input: &FrameInput) -> Result<FrameOutput, TrackError> {
