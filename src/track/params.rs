@@ -153,9 +153,12 @@ pub struct ReidParams {
     pub short_term: bool,
     /// Long-term ReID (BiME + MTE, Eq. 7-9).
     pub long_term: bool,
-    /// w, frames: the velocity window of Eq. 8 (exit velocity from the observation w frames
-    /// before the exit, entry velocity from the one w frames after the entry); online, also
-    /// how long a new track must live before it is linked. 30 frames = 1 s at 30 fps: long
+    /// w, frames: the velocity window of Eq. 8. The exit velocity uses the observation w
+    /// matched observations before the exit (the paper's `X_{t_exit - w}`; the same as w
+    /// frames when the track was matched in every frame) and divides by the true time
+    /// between the two, s; the entry velocity likewise w observations after the entry.
+    /// Online, a new track is linked once `frame_index - start_frame >= w` (frame numbers,
+    /// so dropped frames count). 30 frames = 1 s at 30 fps: long
     /// enough that geolocation noise (about 1 m) gives a velocity error near 1 m/s, short
     /// enough that online re-labels come within a second.
     pub window_frames: u32,
