@@ -52,8 +52,10 @@ pub struct BaselineParams {
     /// duplicates; the younger one is removed (BoT-SORT constant 0.15).
     pub duplicate_iou_dist: f64,
     /// IoU threshold of the "prefer larger" NMS applied to the detections of every frame
-    /// (paper Sec. 5.1 post-processing; 0.5, the best IoU threshold of the paper's ablation).
-    /// `None` disables it.
+    /// (paper Sec. 5.1 post-processing). 0.5, the best "IoU threshold" of the paper's
+    /// ablation; that threshold is read as the NMS one because FP grows with it there (more
+    /// overlapping boxes survive), while BoT-SORT without appearance features has no other
+    /// IoU threshold. `None` disables it.
     pub nms_iou_threshold: Option<f64>,
     /// Standard deviation of the white-noise acceleration of the world-state filter, m/s^2.
     /// 0.5: swimmers and drifting objects barely accelerate; boats manoeuvre more but the
