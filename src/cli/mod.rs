@@ -16,15 +16,13 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {
-}
+enum Command {}
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
-    let result: anyhow::Result<()> = match cli.command {
-    };
+    let result: anyhow::Result<()> = match cli.command {};
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
