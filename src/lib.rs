@@ -12,3 +12,4 @@
 
 pub mod formats;
 pub mod geo;
+pub mod track;
