@@ -4,6 +4,8 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod geolocate;
+
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
 #[derive(Debug, Parser)]
 #[command(name = "mgmot", version, about, long_about = None)]
@@ -16,13 +18,18 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Geolocate boxes (ground truth or detections) on the sea surface.
+    Geolocate(geolocate::Args),
+}
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
-    let result: anyhow::Result<()> = match cli.command {};
+    let result: anyhow::Result<()> = match cli.command {
+        Command::Geolocate(args) => geolocate::run(args),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
