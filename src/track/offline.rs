@@ -323,6 +323,16 @@ mod tests {
     }
 
     #[test]
+    fn empty_sequence_gives_empty_result() {
+        let r = track_sequence(&[], &TrackerParams::default()).unwrap();
+        assert!(r.frames.is_empty() && r.relabelled.is_empty());
+        let frames: Vec<_> = (0..3).map(frame).collect();
+        let r = track_sequence(&frames, &TrackerParams::default()).unwrap();
+        assert_eq!(r.frames.len(), 3);
+        assert!(r.frames.iter().all(|f| f.tracks.is_empty()));
+    }
+
+    #[test]
     fn interpolation_leaves_long_gaps_open() {
         let frames: Vec<_> = (0..10).map(frame).collect();
         let mut pts = vec![point(0, 0.0, None), point(9, 90.0, None)];

@@ -70,8 +70,8 @@ pub struct TrackOutput {
     pub state: TrackState,
     /// World position, velocity and covariance, when the track has had a world observation.
     pub world: Option<WorldState>,
-    /// Index into [`FrameInput::detections`] of the detection matched in this frame, or `None`
-    /// for the rare report without a match in this frame.
+    /// Index into [`FrameInput::detections`] of the detection matched in this frame. Always
+    /// set in [`FrameOutput::tracks`]; `None` for lost tracks from `Tracker::live_tracks`.
     pub detection_index: Option<usize>,
 }
 
