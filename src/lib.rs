@@ -10,4 +10,6 @@
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 #![warn(missing_docs)]
 
+pub mod eval;
+pub mod formats;
 pub mod geo;
