@@ -4,13 +4,14 @@
 use anyhow::{bail, Context};
 use clap::{Args as ClapArgs, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use mgmot::eval::BoxXywh;
 use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
-use mgmot::eval::BoxXywh;
 use mgmot::formats::{coco, mot};
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, Pixel, PoseNoise};
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, MergeEvent, Tracker, TrackerParams, WorldObservation, WorldState,
+    track_sequence, BBox, Detection, FrameInput, MergeEvent, Tracker, TrackerParams,
+    WorldObservation, WorldState,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -125,8 +126,10 @@ type Dets = Vec<(u32, [f64; 4], f64)>;
 pub fn run(args: Args) -> anyhow::Result<()> {
     let params = match &args.config {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            let p: TrackerParams = toml::from_str(&text).with_context(|| format!("{}: invalid tracker parameters", path.display()))?;
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let p: TrackerParams = toml::from_str(&text)
+                .with_context(|| format!("{}: invalid tracker parameters", path.display()))?;
             p
         }
         None => TrackerParams::default(),
@@ -141,27 +144,44 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let dets_by_image = load_detections(&args, &ds, &sequences)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
 
     let total_frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
-    let progress = if args.json { ProgressBar::hidden() } else { ProgressBar::new(total_frames as u64) };
+    let progress = if args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total_frames as u64)
+    };
     progress.set_style(
-        ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len} frames ({per_sec}, eta {eta})")
-            .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{msg:>24} [{bar:40}] {pos}/{len} frames ({per_sec}, eta {eta})",
+        )
+        .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
+        .progress_chars("=> "),
     );
 
     let mut summaries = Vec::new();
     for seq in &sequences {
         progress.set_message(seq.name.clone());
-        summaries.push(track_video(&args, &params, &ds, seq, &dets_by_image, &progress)?);
+        summaries.push(track_video(
+            &args,
+            &params,
+            &ds,
+            seq,
+            &dets_by_image,
+            &progress,
+        )?);
     }
     progress.finish_and_clear();
 
     let summary = serde_json::json!({ "mode": args.mode, "metadata": !args.no_metadata, "videos": summaries });
     let summary_path = args.out.join("summary.json");
-    std::fs::write(&summary_path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("writing {}", summary_path.display()))?;
+    std::fs::write(
+        &summary_path,
+        serde_json::to_string_pretty(&summary)? + "\n",
+    )
+    .with_context(|| format!("writing {}", summary_path.display()))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
@@ -183,9 +203,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// Detections grouped by image id.
-fn load_detections(args: &Args, ds: &Dataset, sequences: &[Sequence]) -> anyhow::Result<HashMap<u64, Dets>> {
+fn load_detections(
+    args: &Args,
+    ds: &Dataset,
+    sequences: &[Sequence],
+) -> anyhow::Result<HashMap<u64, Dets>> {
     let mut by_image: HashMap<u64, Dets> = HashMap::new();
-    let is_txt = args.detections.extension().is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    let is_txt = args
+        .detections
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
     if is_txt {
         let [seq] = sequences else {
             bail!(
@@ -197,7 +224,11 @@ fn load_detections(args: &Args, ds: &Dataset, sequences: &[Sequence]) -> anyhow:
         };
         let rows = mot::read_detections(&args.detections)?;
         for r in rows {
-            let Some(frame) = usize::try_from(r.frame).ok().and_then(|f| f.checked_sub(1)).and_then(|i| seq.frames.get(i)) else {
+            let Some(frame) = usize::try_from(r.frame)
+                .ok()
+                .and_then(|f| f.checked_sub(1))
+                .and_then(|i| seq.frames.get(i))
+            else {
                 bail!(
                     "{}: frame {} is outside video {} (1..={})",
                     args.detections.display(),
@@ -207,7 +238,11 @@ fn load_detections(args: &Args, ds: &Dataset, sequences: &[Sequence]) -> anyhow:
                 );
             };
             let class_id = u32::try_from(r.class).unwrap_or(0);
-            by_image.entry(frame.image_id).or_default().push((class_id, [r.bbox.x, r.bbox.y, r.bbox.w, r.bbox.h], r.conf));
+            by_image.entry(frame.image_id).or_default().push((
+                class_id,
+                [r.bbox.x, r.bbox.y, r.bbox.w, r.bbox.h],
+                r.conf,
+            ));
         }
     } else {
         let known: std::collections::HashSet<u64> = ds.images.iter().map(|i| i.id).collect();
@@ -217,10 +252,16 @@ fn load_detections(args: &Args, ds: &Dataset, sequences: &[Sequence]) -> anyhow:
                 unknown += 1;
                 continue;
             }
-            by_image.entry(d.image_id).or_default().push((d.category_id, d.bbox, d.score));
+            by_image
+                .entry(d.image_id)
+                .or_default()
+                .push((d.category_id, d.bbox, d.score));
         }
         if unknown > 0 {
-            tracing::warn!(unknown, "detections for images not in the annotations file were ignored");
+            tracing::warn!(
+                unknown,
+                "detections for images not in the annotations file were ignored"
+            );
         }
     }
     Ok(by_image)
@@ -228,7 +269,9 @@ fn load_detections(args: &Args, ds: &Dataset, sequences: &[Sequence]) -> anyhow:
 
 /// Geolocates a box's centre into a world observation (None when it misses the sea).
 fn observe(frame: &FrameGeometry<'_>, bbox: &[f64; 4]) -> Option<WorldObservation> {
-    let g = frame.locate(Pixel::new(bbox[0] + bbox[2] / 2.0, bbox[1] + bbox[3] / 2.0)).ok()?;
+    let g = frame
+        .locate(Pixel::new(bbox[0] + bbox[2] / 2.0, bbox[1] + bbox[3] / 2.0))
+        .ok()?;
     Some(WorldObservation {
         pos_ne_m: g.ned_m.xy(),
         cov_ne_m2: g.cov_ne_m2,
@@ -255,7 +298,13 @@ fn track_video(
         .map(|f| {
             let image = &ds.images[f.image_index];
             if (image.width, image.height) != (first_image.width, first_image.height) {
-                bail!("video {}: image {} is {}x{}, unlike the video's first frame", seq.name, image.id, image.width, image.height);
+                bail!(
+                    "video {}: image {} is {}x{}, unlike the video's first frame",
+                    seq.name,
+                    image.id,
+                    image.width,
+                    image.height
+                );
             }
             match (&image.meta, args.no_metadata) {
                 (Some(m), false) => m
@@ -309,7 +358,13 @@ fn track_video(
         previous = geometry;
     }
 
-    let to_row = |frame: u64, time_s: f64, id: u64, class_id: u32, score: f32, world: &WorldState, interpolated: bool| {
+    let to_row = |frame: u64,
+                  time_s: f64,
+                  id: u64,
+                  class_id: u32,
+                  score: f32,
+                  world: &WorldState,
+                  interpolated: bool| {
         let reference = geolocator.as_ref().map(|g| g.reference());
         reference.map(|r| {
             let geodetic = r.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
@@ -340,8 +395,24 @@ fn track_video(
             for input in &inputs {
                 let out = tracker.step(input)?;
                 for t in &out.tracks {
-                    mot_rows.push(mot_result(input.frame_index, t.id, &t.bbox, t.score, t.class_id));
-                    if let Some(row) = t.world.as_ref().and_then(|w| to_row(input.frame_index, input.time_s, t.id, t.class_id, t.score, w, false)) {
+                    mot_rows.push(mot_result(
+                        input.frame_index,
+                        t.id,
+                        &t.bbox,
+                        t.score,
+                        t.class_id,
+                    ));
+                    if let Some(row) = t.world.as_ref().and_then(|w| {
+                        to_row(
+                            input.frame_index,
+                            input.time_s,
+                            t.id,
+                            t.class_id,
+                            t.score,
+                            w,
+                            false,
+                        )
+                    }) {
                         geo_rows.push(row);
                     }
                 }
@@ -354,8 +425,24 @@ fn track_video(
             let result = track_sequence(&inputs, params)?;
             for frame in &result.frames {
                 for t in &frame.tracks {
-                    mot_rows.push(mot_result(frame.frame_index, t.id, &t.bbox, t.score, t.class_id));
-                    if let Some(row) = t.world.as_ref().and_then(|w| to_row(frame.frame_index, frame.time_s, t.id, t.class_id, t.score, w, t.interpolated)) {
+                    mot_rows.push(mot_result(
+                        frame.frame_index,
+                        t.id,
+                        &t.bbox,
+                        t.score,
+                        t.class_id,
+                    ));
+                    if let Some(row) = t.world.as_ref().and_then(|w| {
+                        to_row(
+                            frame.frame_index,
+                            frame.time_s,
+                            t.id,
+                            t.class_id,
+                            t.score,
+                            w,
+                            t.interpolated,
+                        )
+                    }) {
                         geo_rows.push(row);
                     }
                 }
@@ -365,7 +452,8 @@ fn track_video(
     }
 
     let mot_path = args.out.join(format!("{}.txt", seq.name));
-    let file = std::fs::File::create(&mot_path).with_context(|| format!("creating {}", mot_path.display()))?;
+    let file = std::fs::File::create(&mot_path)
+        .with_context(|| format!("creating {}", mot_path.display()))?;
     let mut writer = std::io::BufWriter::new(file);
     mot::write(&mut writer, &mot_rows)
         .and_then(|()| writer.flush())
@@ -397,7 +485,12 @@ fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: u32) -> mot::
     mot::MotRecord {
         frame,
         id: i64::try_from(id).unwrap_or(i64::MAX),
-        bbox: BoxXywh { x: b.x, y: b.y, w: b.w, h: b.h },
+        bbox: BoxXywh {
+            x: b.x,
+            y: b.y,
+            w: b.w,
+            h: b.h,
+        },
         conf: f64::from(score),
         class: i64::from(class_id),
         visibility: None,
