@@ -329,13 +329,13 @@ impl Dataset {
                         .unwrap_or(im.id)
                 };
                 idx.sort_by_key(|&i| (order(&self.images[i]), self.images[i].id));
-                let stamps: Option<Vec<f64>> = idx
+                let stamps: Option<Vec<chrono::NaiveDateTime>> = idx
                     .iter()
-                    .map(|&i| self.images[i].date_time.as_deref().and_then(parse_time_s))
+                    .map(|&i| self.images[i].date_time.as_deref().and_then(parse_time))
                     .collect();
                 let times: Vec<f64> = match stamps {
-                    Some(t) if t.windows(2).all(|w| w[1] >= w[0]) => {
-                        t.iter().map(|v| v - t[0]).collect()
+                    Some(t) if !t.is_empty() && t.windows(2).all(|w| w[1] >= w[0]) => {
+                        t.iter().map(|v| seconds_between(&t[0], v)).collect()
                     }
                     _ => {
                         let first = idx.first().map(|&i| order(&self.images[i])).unwrap_or(0);
