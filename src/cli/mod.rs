@@ -4,7 +4,9 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod eval;
 mod geolocate;
+mod track;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
 #[derive(Debug, Parser)]
@@ -21,6 +23,10 @@ struct Cli {
 enum Command {
     /// Geolocate boxes (ground truth or detections) on the sea surface.
     Geolocate(geolocate::Args),
+    /// Evaluate tracking results against ground truth (HOTA, CLEAR, Identity).
+    Eval(eval::Args),
+    /// Track the videos of a SeaDronesSee file and geolocate the tracks.
+    Track(track::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -29,6 +35,8 @@ pub fn main() -> ExitCode {
     init_logging(cli.verbose);
     let result: anyhow::Result<()> = match cli.command {
         Command::Geolocate(args) => geolocate::run(args),
+        Command::Eval(args) => eval::run(args),
+        Command::Track(args) => track::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

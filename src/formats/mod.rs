@@ -5,6 +5,7 @@
 pub mod coco;
 pub mod error;
 pub mod geopoints;
+pub mod mot;
 pub mod seadronessee;
 
 pub use error::FormatError;

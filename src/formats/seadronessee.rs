@@ -329,13 +329,13 @@ impl Dataset {
                         .unwrap_or(im.id)
                 };
                 idx.sort_by_key(|&i| (order(&self.images[i]), self.images[i].id));
-                let stamps: Option<Vec<f64>> = idx
+                let stamps: Option<Vec<chrono::NaiveDateTime>> = idx
                     .iter()
-                    .map(|&i| self.images[i].date_time.as_deref().and_then(parse_time_s))
+                    .map(|&i| self.images[i].date_time.as_deref().and_then(parse_time))
                     .collect();
                 let times: Vec<f64> = match stamps {
-                    Some(t) if t.windows(2).all(|w| w[1] >= w[0]) => {
-                        t.iter().map(|v| v - t[0]).collect()
+                    Some(t) if !t.is_empty() && t.windows(2).all(|w| w[1] >= w[0]) => {
+                        t.iter().map(|v| seconds_between(&t[0], v)).collect()
                     }
                     _ => {
                         let first = idx.first().map(|&i| order(&self.images[i])).unwrap_or(0);
@@ -361,14 +361,19 @@ impl Dataset {
     }
 }
 
-/// Seconds since the Unix epoch of an ISO 8601 date-time without zone (`%Y-%m-%dT%H:%M:%S%.f`,
-/// or with a space instead of `T`).
-fn parse_time_s(s: &str) -> Option<f64> {
-    let t = chrono::NaiveDateTime::parse_from_str(s, "%Y-%m-%dT%H:%M:%S%.f")
+/// Parses an ISO 8601 date-time without zone (`%Y-%m-%dT%H:%M:%S%.f`, or with a space
+/// instead of `T`).
+fn parse_time(s: &str) -> Option<chrono::NaiveDateTime> {
+    chrono::NaiveDateTime::parse_from_str(s, "%Y-%m-%dT%H:%M:%S%.f")
         .or_else(|_| chrono::NaiveDateTime::parse_from_str(s, "%Y-%m-%d %H:%M:%S%.f"))
-        .ok()?
-        .and_utc();
-    Some(t.timestamp() as f64 + f64::from(t.timestamp_subsec_micros()) * 1e-6)
+        .ok()
+}
+
+/// Seconds from `from` to `to`, exact to the microsecond.
+fn seconds_between(from: &chrono::NaiveDateTime, to: &chrono::NaiveDateTime) -> f64 {
+    let d = *to - *from;
+    d.num_microseconds()
+        .map_or(d.num_milliseconds() as f64 * 1e-3, |us| us as f64 * 1e-6)
 }
 
 #[cfg(test)]
@@ -447,10 +452,10 @@ mod tests {
 
     #[test]
     fn parses_date_times() {
-        let a = parse_time_s("2020-08-25T14:19:21.647133").unwrap();
-        let b = parse_time_s("2020-08-25T14:19:22.147633").unwrap();
-        assert!((b - a - 0.5005).abs() < 1e-6);
-        assert!(parse_time_s("yesterday").is_none());
+        let a = parse_time("2020-08-25T14:19:21.647133").unwrap();
+        let b = parse_time("2020-08-25 14:19:22.147633").unwrap();
+        assert_eq!(seconds_between(&a, &b), 0.5005);
+        assert!(parse_time("yesterday").is_none());
     }
 
     #[test]
