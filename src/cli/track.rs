@@ -49,6 +49,11 @@ pub struct Args {
     /// Horizontal field of view of the camera (deg).
     #[arg(long, default_value_t = 70.0)]
     fov_deg: f64,
+    /// How long the metadata lags the video (s): each metadata record describes the moment this
+    /// long before the frame it comes with; the pose is interpolated between records.
+    /// SeaDronesSee's DJI logs lag by about 1 s; simulator output has no lag.
+    #[arg(long, default_value_t = 0.0)]
+    metadata_lag_s: f64,
     /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`.
     #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS)]
     fps: f64,
@@ -292,29 +297,26 @@ fn track_video(
     let first_image = &ds.images[first.image_index];
     let camera = CameraModel::from_hfov(first_image.width, first_image.height, args.fov_deg)
         .with_context(|| format!("video {}: camera model", seq.name))?;
-    let metas: Vec<_> = seq
+    if let Some(image) = seq
         .frames
         .iter()
-        .map(|f| {
-            let image = &ds.images[f.image_index];
-            if (image.width, image.height) != (first_image.width, first_image.height) {
-                bail!(
-                    "video {}: image {} is {}x{}, unlike the video's first frame",
-                    seq.name,
-                    image.id,
-                    image.width,
-                    image.height
-                );
-            }
-            match (&image.meta, args.no_metadata) {
-                (Some(m), false) => m
-                    .to_frame_metadata()
-                    .map(Some)
-                    .with_context(|| format!("image {}: metadata", image.id)),
-                _ => Ok(None),
-            }
-        })
-        .collect::<anyhow::Result<_>>()?;
+        .map(|f| &ds.images[f.image_index])
+        .find(|im| (im.width, im.height) != (first_image.width, first_image.height))
+    {
+        bail!(
+            "video {}: image {} is {}x{}, unlike the video's first frame",
+            seq.name,
+            image.id,
+            image.width,
+            image.height
+        );
+    }
+    let metas = if args.no_metadata {
+        vec![None; seq.frames.len()]
+    } else {
+        ds.frame_metadata(seq, args.metadata_lag_s)
+            .with_context(|| format!("video {}: metadata", seq.name))?
+    };
     let reference = metas.iter().flatten().next().map(|m| m.nadir_on_water());
     let geolocator = reference.map(|r| Geolocator::new(r, camera, PoseNoise::default()));
 
@@ -349,7 +351,7 @@ fn track_video(
             _ => None,
         };
         inputs.push(FrameInput {
-            frame_index: f.frame_number,
+            frame_index: f.video_frame,
             time_s: f.time_s,
             image_size_px: (image.width, image.height),
             detections,
@@ -392,11 +394,11 @@ fn track_video(
     match args.mode {
         Mode::Online => {
             let mut tracker = Tracker::new(params.clone())?;
-            for input in &inputs {
+            for (input, f) in inputs.iter().zip(&seq.frames) {
                 let out = tracker.step(input)?;
                 for t in &out.tracks {
                     mot_rows.push(mot_result(
-                        input.frame_index,
+                        f.frame_number,
                         t.id,
                         &t.bbox,
                         t.score,
@@ -404,7 +406,7 @@ fn track_video(
                     ));
                     if let Some(row) = t.world.as_ref().and_then(|w| {
                         to_row(
-                            input.frame_index,
+                            f.frame_number,
                             input.time_s,
                             t.id,
                             t.class_id,
@@ -423,10 +425,10 @@ fn track_video(
         }
         Mode::Offline => {
             let result = track_sequence(&inputs, params)?;
-            for frame in &result.frames {
+            for (frame, f) in result.frames.iter().zip(&seq.frames) {
                 for t in &frame.tracks {
                     mot_rows.push(mot_result(
-                        frame.frame_index,
+                        f.frame_number,
                         t.id,
                         &t.bbox,
                         t.score,
@@ -434,7 +436,7 @@ fn track_video(
                     ));
                     if let Some(row) = t.world.as_ref().and_then(|w| {
                         to_row(
-                            frame.frame_index,
+                            f.frame_number,
                             frame.time_s,
                             t.id,
                             t.class_id,
