@@ -62,6 +62,12 @@ def random_sequence(rng):
             "ignored": rng.random() < 0.1,
             "pred_id": None,
         })
+    # Twins: an object that moves exactly like another one, so that IoUs and
+    # assignment scores tie and the solver's tie-breaking is exercised.
+    if len(objects) >= 2 and rng.random() < 0.3:
+        a, b = rng.sample(objects, 2)
+        for k in ("start", "end", "x", "y", "w", "h", "vx", "vy"):
+            b[k] = a[k]
     # Ensure gt ids are unique.
     seen = set()
     for o in objects:
