@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 /// Track each video of a SeaDronesSee file and geolocate the tracks.
 ///
-/// Writes, per video, `<video>.txt` (MOTChallenge results: frame,id,x,y,w,h,conf,-1,-1,-1),
+/// Writes, per video, `<video>.txt` (MOTChallenge results: frame,id,x,y,w,h,conf,-1,-1),
 /// `<video>_tracks.csv` (or .geojson: one row per track per frame with lat/lon), and a
 /// `summary.json` with the counts and the online mode's merge events.
 #[derive(Debug, ClapArgs)]
@@ -57,6 +57,11 @@ pub struct Args {
     /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`.
     #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS)]
     fps: f64,
+    /// Write each track's class id in column 8 of the MOTChallenge results (for
+    /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
+    /// convention that TrackEval's MOT loader requires.
+    #[arg(long)]
+    class_column: bool,
     /// Geo track file format.
     #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
     geo_format: GeoOut,
@@ -402,7 +407,7 @@ fn track_video(
                         t.id,
                         &t.bbox,
                         t.score,
-                        t.class_id,
+                        args.class_column.then_some(t.class_id),
                     ));
                     if let Some(row) = t.world.as_ref().and_then(|w| {
                         to_row(
@@ -432,7 +437,7 @@ fn track_video(
                         t.id,
                         &t.bbox,
                         t.score,
-                        t.class_id,
+                        args.class_column.then_some(t.class_id),
                     ));
                     if let Some(row) = t.world.as_ref().and_then(|w| {
                         to_row(
@@ -482,8 +487,9 @@ fn track_video(
     })
 }
 
-/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1`.
-fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: u32) -> mot::MotRecord {
+/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1` (class -1 when `class_id` is
+/// `None`).
+fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: Option<u32>) -> mot::MotRecord {
     mot::MotRecord {
         frame,
         id: i64::try_from(id).unwrap_or(i64::MAX),
@@ -494,7 +500,7 @@ fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: u32) -> mot::
             h: b.h,
         },
         conf: f64::from(score),
-        class: i64::from(class_id),
+        class: class_id.map_or(-1, i64::from),
         visibility: None,
     }
 }
