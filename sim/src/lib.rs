@@ -10,3 +10,7 @@ pub mod scenario;
 pub mod world;
 pub mod render;
 pub mod truth;
+pub mod detections;
+pub mod framing;
+pub mod output;
+pub mod telemetry;
