@@ -563,14 +563,14 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
             // Submerged body trailing behind, seen through the water.
             part(ring(-0.7, 0.0, 0.7, 0.22, -0.15, 10), [18, 40, 45], 0.45);
             if o.lifejacket {
-                let mut vest = ring(-0.05, 0.0, l * 0.42, w * 0.5, 0.0, 12);
-                vest.extend(ring(-0.05, 0.0, l * 0.36, w * 0.42, 0.12, 12));
+                let mut vest = ring(-0.05, 0.0, l * 0.45, w * 0.5, 0.0, 12);
+                vest.extend(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.14, 12));
                 part(vest, VIVID[pal % VIVID.len()], 1.0);
             } else {
-                part(ring(-0.05, 0.0, l * 0.3, w * 0.45, 0.03, 10), [40, 45, 50], 0.9);
+                part(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.03, 10), [40, 45, 50], 0.9);
             }
-            let mut head = ring(l * 0.25, 0.0, 0.11, 0.1, 0.08, 8);
-            head.extend(ring(l * 0.25, 0.0, 0.1, 0.09, h, 8));
+            let mut head = ring(l * 0.3, 0.0, 0.13, 0.12, 0.08, 8);
+            head.extend(ring(l * 0.3, 0.0, 0.12, 0.11, h, 8));
             part(head, HEADS[pal % HEADS.len()], 1.0);
         }
         ObjectClass::Boat | ObjectClass::Jetski => {
