@@ -21,6 +21,9 @@ use rand_chacha::ChaCha8Rng;
 const TEX: usize = 256;
 const TEX_MASK: i32 = (TEX as i32) - 1;
 
+/// A tiling texture; fixed size so that masked indices need no bounds checks.
+type Texture = [u8; TEX * TEX];
+
 /// Entries of the per-frame distance look-up tables (haze, texture level of detail, glint).
 const LUT: usize = 1024;
 
@@ -36,9 +39,9 @@ pub struct Renderer {
     width: usize,
     height: usize,
     /// Swell texture: crest lines across the wave direction, one wavelength per 64 texels.
-    swell: Vec<u8>,
+    swell: Box<Texture>,
     /// Chop texture: isotropic fine ripples (also the glint sparkle mask).
-    chop: Vec<u8>,
+    chop: Box<Texture>,
     sea_rgb: [f32; 3],
     haze_rgb: [f32; 3],
     sky_top_rgb: [f32; 3],
@@ -65,7 +68,7 @@ impl Renderer {
         rng.set_stream(STREAM_TEXTURE);
         let phase = value_noise(&mut rng, &[(4, 1.0), (8, 0.5)]);
         let amp = value_noise(&mut rng, &[(4, 1.0), (16, 0.4)]);
-        let mut swell = vec![0u8; TEX * TEX];
+        let mut swell: Box<Texture> = Box::new([0u8; TEX * TEX]);
         for y in 0..TEX {
             for x in 0..TEX {
                 let i = y * TEX + x;
@@ -77,7 +80,10 @@ impl Renderer {
             }
         }
         let chop_f = value_noise(&mut rng, &[(16, 1.0), (32, 0.6), (64, 0.35)]);
-        let chop = chop_f.iter().map(|v| (v.clamp(0.0, 1.0) * 255.0) as u8).collect();
+        let mut chop: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        for (c, v) in chop.iter_mut().zip(chop_f.iter()) {
+            *c = (v.clamp(0.0, 1.0) * 255.0) as u8;
+        }
         let sea = &scenario.sea;
         let c = sea.color_rgb;
         Renderer {
@@ -222,66 +228,133 @@ impl Renderer {
             let d2 = i as f64 / g2_scale;
             *g = (-d2 / (2.0 * glint_sigma * glint_sigma)).exp() as f32;
         }
-        let glint = self.glint;
-        let wave_amp = self.wave_amp;
-        let sea_rgb = self.sea_rgb;
-        let haze = self.haze_rgb;
-
+        let ctx = SeaFrame {
+            forms: [rel_n, rel_e, swell_u, swell_v, chop_u, chop_v, rw],
+            swell_off,
+            chop_off,
+            spec_ne: (sn, se),
+            d2_scale,
+            g2_scale,
+            lut_fog,
+            lut_lod_a,
+            lut_lod_b,
+            lut_glint,
+        };
         for v in 0..h {
-            let p = SVector::<f64, 3>::new(0.5, v as f64 + 0.5, 1.0);
-            // Accumulators along the row (u increases by 1 per pixel).
-            let mut acc = [
-                rel_n.dot(&p),
-                rel_e.dot(&p),
-                swell_u.dot(&p),
-                swell_v.dot(&p),
-                chop_u.dot(&p),
-                chop_v.dot(&p),
-                rw.dot(&p),
-            ];
-            let step = [rel_n[0], rel_e[0], swell_u[0], swell_v[0], chop_u[0], chop_v[0], rw[0]];
             let line = &mut rgb[v * w * BYTES_PER_PIXEL..(v + 1) * w * BYTES_PER_PIXEL];
-            for px in line.chunks_exact_mut(BYTES_PER_PIXEL) {
-                let wgt = acc[6];
-                let color = if wgt <= 1e-12 {
-                    self.sky_at(v)
-                } else {
-                    let inv = 1.0 / wgt;
-                    let dn = acc[0] * inv;
-                    let de = acc[1] * inv;
-                    let d2 = dn * dn + de * de;
-                    let k = ((d2 * d2_scale) as usize).min(LUT - 1);
-                    let fog = lut_fog[k];
-                    // Swell, bilinear (it is magnified near the camera).
-                    let su = acc[2] * inv + swell_off;
-                    let sv = acc[3] * inv;
-                    let swell = sample_bilinear(&self.swell, su, sv);
-                    let cu = (acc[4] * inv + chop_off.0) as i32;
-                    let cv = (acc[5] * inv + chop_off.1) as i32;
-                    let chop = f32::from(self.chop[((cv & TEX_MASK) as usize) * TEX + (cu & TEX_MASK) as usize]);
-                    let shade = 1.0
-                        + wave_amp * 0.45 * (swell - 100.0) / 128.0 * lut_lod_a[k]
-                        + 0.22 * (chop - 128.0) / 128.0 * lut_lod_b[k];
-                    let gn = dn - sn;
-                    let ge = de - se;
-                    let gk = (((gn * gn + ge * ge) * g2_scale) as usize).min(LUT - 1);
-                    let g = lut_glint[gk] * glint;
-                    let sparkle = if chop > 170.0 { (chop - 170.0) * 3.0 * g } else { 0.0 };
-                    let add = g * 70.0 + sparkle;
-                    let mut out = [0f32; 3];
+            self.render_row(&ctx, v, line);
+        }
+    }
+
+    /// Shading inputs of one pixel position, computed exactly (with the perspective
+    /// division) at span ends and interpolated linearly in between.
+    fn sea_point(&self, ctx: &SeaFrame, u: f64, v: f64) -> Option<SeaPoint> {
+        let p = SVector::<f64, 3>::new(u, v, 1.0);
+        let wgt = ctx.forms[6].dot(&p);
+        if wgt <= 1e-12 {
+            return None;
+        }
+        let inv = 1.0 / wgt;
+        let dn = ctx.forms[0].dot(&p) * inv;
+        let de = ctx.forms[1].dot(&p) * inv;
+        let d2 = dn * dn + de * de;
+        let k = ((d2 * ctx.d2_scale) as usize).min(LUT - 1);
+        let fog = ctx.lut_fog[k];
+        let (gn, ge) = (dn - ctx.spec_ne.0, de - ctx.spec_ne.1);
+        let gk = (((gn * gn + ge * ge) * ctx.g2_scale) as usize).min(LUT - 1);
+        let g = ctx.lut_glint[gk] * self.glint;
+        let mut c0 = [0f32; 3];
+        let mut c1 = [0f32; 3];
+        for c in 0..3 {
+            c0[c] = self.sea_rgb[c] * (1.0 - fog);
+            c1[c] = self.haze_rgb[c] * fog + g * 70.0;
+        }
+        // Texture coordinates in 24.8 fixed point, wrapping (the textures tile).
+        let fx = |x: f64| ((x * 256.0) as i64) as i32;
+        Some(SeaPoint {
+            su: ctx.forms[2].dot(&p) * inv + ctx.swell_off,
+            sv: ctx.forms[3].dot(&p) * inv,
+            cu: ctx.forms[4].dot(&p) * inv + ctx.chop_off.0,
+            cv: ctx.forms[5].dot(&p) * inv + ctx.chop_off.1,
+            fixed: [0; 4],
+            c0,
+            c1,
+            amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
+            amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
+            sparkle: 3.0 * g,
+        }
+        .with_fixed(fx))
+    }
+
+    fn render_row(&self, ctx: &SeaFrame, v: usize, line: &mut [u8]) {
+        let w = self.width;
+        let vc = v as f64 + 0.5;
+        let sky = self.sky_at(v).map(|c| c.clamp(0.0, 255.0) as u8);
+        let mut u = 0;
+        let mut left = self.sea_point(ctx, 0.5, vc);
+        while u < w {
+            let end = (u + SPAN).min(w);
+            let n = end - u;
+            let right = self.sea_point(ctx, end as f64 + 0.5, vc);
+            match (&left, &right) {
+                (Some(a), Some(b)) => {
+                    let inv_n = 1.0 / n as f32;
+                    let d = |x: f64, y: f64| (((y - x) * 256.0) / n as f64) as i32;
+                    let dfx = [d(a.su, b.su), d(a.sv, b.sv), d(a.cu, b.cu), d(a.cv, b.cv)];
+                    let mut fxy = a.fixed;
+                    let mut c0 = a.c0;
+                    let mut c1 = a.c1;
+                    let mut dc0 = [0f32; 3];
+                    let mut dc1 = [0f32; 3];
                     for c in 0..3 {
-                        let base = sea_rgb[c] * shade;
-                        out[c] = base + (haze[c] - base) * fog + add;
+                        dc0[c] = (b.c0[c] - a.c0[c]) * inv_n;
+                        dc1[c] = (b.c1[c] - a.c1[c]) * inv_n;
                     }
-                    out
-                };
-                px[0] = color[0].clamp(0.0, 255.0) as u8;
-                px[1] = color[1].clamp(0.0, 255.0) as u8;
-                px[2] = color[2].clamp(0.0, 255.0) as u8;
-                for (a, s) in acc.iter_mut().zip(step.iter()) {
-                    *a += s;
+                    let (mut amp_a, mut amp_b, mut sparkle) = (a.amp_a, a.amp_b, a.sparkle);
+                    let damp_a = (b.amp_a - a.amp_a) * inv_n;
+                    let damp_b = (b.amp_b - a.amp_b) * inv_n;
+                    let dsparkle = (b.sparkle - a.sparkle) * inv_n;
+                    for px in line[u * BYTES_PER_PIXEL..end * BYTES_PER_PIXEL].chunks_exact_mut(BYTES_PER_PIXEL) {
+                        let swell = sample_bilinear_fixed(&self.swell, fxy[0], fxy[1]);
+                        let chop = f32::from(self.chop[tex_index(fxy[2] >> 8, fxy[3] >> 8)]);
+                        let shade = 1.0 + amp_a * (swell - 100.0) + amp_b * (chop - 128.0);
+                        let spark = if chop > 170.0 { (chop - 170.0) * sparkle } else { 0.0 };
+                        px[0] = (c0[0] * shade + c1[0] + spark) as u8;
+                        px[1] = (c0[1] * shade + c1[1] + spark) as u8;
+                        px[2] = (c0[2] * shade + c1[2] + spark) as u8;
+                        for k in 0..4 {
+                            fxy[k] = fxy[k].wrapping_add(dfx[k]);
+                        }
+                        for c in 0..3 {
+                            c0[c] += dc0[c];
+                            c1[c] += dc1[c];
+                        }
+                        amp_a += damp_a;
+                        amp_b += damp_b;
+                        sparkle += dsparkle;
+                    }
+                }
+                _ => {
+                    // Near or above the horizon: every pixel exactly.
+                    for x in u..end {
+                        let px = &mut line[x * BYTES_PER_PIXEL..(x + 1) * BYTES_PER_PIXEL];
+                        match self.sea_point(ctx, x as f64 + 0.5, vc) {
+                            None => px.copy_from_slice(&sky),
+                            Some(p) => {
+                                let swell = sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
+                                let chop = f32::from(self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)]);
+                                let shade = 1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
+                                let spark = if chop > 170.0 { (chop - 170.0) * p.sparkle } else { 0.0 };
+                                for c in 0..3 {
+                                    px[c] = (p.c0[c] * shade + p.c1[c] + spark).clamp(0.0, 255.0) as u8;
+                                }
+                            }
+                        }
+                    }
                 }
             }
+            left = right;
+            u = end;
         }
     }
 
@@ -307,23 +380,67 @@ impl Renderer {
     }
 }
 
-fn sample_bilinear(tex: &[u8], u: f64, v: f64) -> f32 {
-    let uf = u.floor();
-    let vf = v.floor();
-    let fu = (u - uf) as f32;
-    let fv = (v - vf) as f32;
-    let x0 = (uf as i32) & TEX_MASK;
-    let y0 = (vf as i32) & TEX_MASK;
-    let x1 = (x0 + 1) & TEX_MASK;
-    let y1 = (y0 + 1) & TEX_MASK;
-    let (x0, x1, y0, y1) = (x0 as usize, x1 as usize, (y0 as usize) * TEX, (y1 as usize) * TEX);
-    let a = f32::from(tex[y0 + x0]);
-    let b = f32::from(tex[y0 + x1]);
-    let c = f32::from(tex[y1 + x0]);
-    let d = f32::from(tex[y1 + x1]);
-    let top = a + (b - a) * fu;
-    let bot = c + (d - c) * fu;
-    top + (bot - top) * fv
+/// Pixels between exact (perspective-divided) evaluations of the sea coordinates; in
+/// between they are interpolated linearly (the error is far below a texel except next to
+/// the horizon, where spans that cross it are evaluated per pixel).
+const SPAN: usize = 16;
+
+/// Per-frame constants of the sea shading.
+struct SeaFrame {
+    /// Linear forms over (u, v, 1): north and east relative to the camera, swell u/v, chop
+    /// u/v (texels), and the homogeneous weight.
+    forms: [SVector<f64, 3>; 7],
+    swell_off: f64,
+    chop_off: (f64, f64),
+    spec_ne: (f64, f64),
+    d2_scale: f64,
+    g2_scale: f64,
+    lut_fog: [f32; LUT],
+    lut_lod_a: [f32; LUT],
+    lut_lod_b: [f32; LUT],
+    lut_glint: [f32; LUT],
+}
+
+/// Shading inputs at one pixel position.
+struct SeaPoint {
+    su: f64,
+    sv: f64,
+    cu: f64,
+    cv: f64,
+    /// `su, sv, cu, cv` in wrapping 24.8 fixed point.
+    fixed: [i32; 4],
+    /// Colour = c0 * shade + c1 (+ sparkle).
+    c0: [f32; 3],
+    c1: [f32; 3],
+    amp_a: f32,
+    amp_b: f32,
+    sparkle: f32,
+}
+
+impl SeaPoint {
+    fn with_fixed(mut self, fx: impl Fn(f64) -> i32) -> SeaPoint {
+        self.fixed = [fx(self.su), fx(self.sv), fx(self.cu), fx(self.cv)];
+        self
+    }
+}
+
+#[inline]
+fn tex_index(x: i32, y: i32) -> usize {
+    ((y & TEX_MASK) as usize) * TEX + (x & TEX_MASK) as usize
+}
+
+/// Bilinear sample at 24.8 fixed-point texel coordinates (arithmetic shifts floor).
+#[inline]
+fn sample_bilinear_fixed(tex: &Texture, u: i32, v: i32) -> f32 {
+    let (x0, y0) = (u >> 8, v >> 8);
+    let (fu, fv) = ((u & 255) as u32, (v & 255) as u32);
+    let a = u32::from(tex[tex_index(x0, y0)]);
+    let b = u32::from(tex[tex_index(x0 + 1, y0)]);
+    let c = u32::from(tex[tex_index(x0, y0 + 1)]);
+    let d = u32::from(tex[tex_index(x0 + 1, y0 + 1)]);
+    let top = a * (256 - fu) + b * fu;
+    let bot = c * (256 - fu) + d * fu;
+    (top * (256 - fv) + bot * fv) as f32 * (1.0 / 65536.0)
 }
 
 /// Tiling value noise on a TEX x TEX grid: `(cells, weight)` octaves, normalised to [0, 1].
@@ -576,7 +693,7 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
         ObjectClass::Boat | ObjectClass::Jetski => {
             if o.speed_mps > 0.8 {
                 // Kelvin wake: two foam arms at ~19.5 deg behind the stern.
-                let len = (o.speed_mps * 3.0).min(40.0);
+                let len = (o.speed_mps * 1.5).min(18.0);
                 let spread = len * 0.35;
                 for side in [-1.0, 1.0] {
                     part(
@@ -586,7 +703,7 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
                             [-l * 0.5 - len, side * (w * 0.5 + spread * 0.8), 0.0],
                         ],
                         [225, 235, 235],
-                        0.55,
+                        0.35,
                     );
                 }
                 part(
@@ -596,7 +713,7 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
                         [-l * 0.5 - len * 0.6, 0.0, 0.0],
                     ],
                     [210, 225, 228],
-                    0.45,
+                    0.3,
                 );
             }
             let deck = if o.class == ObjectClass::Boat { h * 0.45 } else { 0.5 };
