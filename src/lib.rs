@@ -13,4 +13,5 @@
 pub mod eval;
 pub mod formats;
 pub mod geo;
+pub mod logging;
 pub mod track;

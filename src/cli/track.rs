@@ -10,8 +10,8 @@ use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, Pixel, PoseNoise};
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, MergeEvent, Tracker, TrackerParams,
-    WorldObservation, WorldState,
+    track_sequence, BBox, Detection, FrameInput, MergeEvent, SequenceTrack, Tracker, TrackerParams,
+    WorldObservation,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -365,64 +365,25 @@ fn track_video(
         previous = geometry;
     }
 
-    let to_row = |frame: u64,
-                  time_s: f64,
-                  id: u64,
-                  class_id: u32,
-                  score: f32,
-                  world: &WorldState,
-                  interpolated: bool| {
-        let reference = geolocator.as_ref().map(|g| g.reference());
-        reference.map(|r| {
-            let geodetic = r.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
-            TrackRow {
-                frame,
-                time_s,
-                track_id: id,
-                class_id,
-                score,
-                lat_deg: geodetic.lat_deg,
-                lon_deg: geodetic.lon_deg,
-                north_m: world.pos_ne_m.x,
-                east_m: world.pos_ne_m.y,
-                vel_north_mps: world.vel_ne_m_s.x,
-                vel_east_mps: world.vel_ne_m_s.y,
-                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
-                interpolated,
-            }
-        })
-    };
-
-    let mut mot_rows = Vec::new();
-    let mut geo_rows = Vec::new();
+    // Every reported track box of either mode, with the position of its frame in the video.
+    let mut tracked: Vec<(usize, SequenceTrack)> = Vec::new();
     let mut merges = Vec::new();
     match args.mode {
         Mode::Online => {
             let mut tracker = Tracker::new(params.clone())?;
-            for (input, f) in inputs.iter().zip(&seq.frames) {
+            for (pos, input) in inputs.iter().enumerate() {
                 let out = tracker.step(input)?;
-                for t in &out.tracks {
-                    mot_rows.push(mot_result(
-                        f.frame_number,
-                        t.id,
-                        &t.bbox,
-                        t.score,
-                        args.class_column.then_some(t.class_id),
-                    ));
-                    if let Some(row) = t.world.as_ref().and_then(|w| {
-                        to_row(
-                            f.frame_number,
-                            input.time_s,
-                            t.id,
-                            t.class_id,
-                            t.score,
-                            w,
-                            false,
-                        )
-                    }) {
-                        geo_rows.push(row);
-                    }
-                }
+                tracked.extend(out.tracks.iter().map(|t| {
+                    let st = SequenceTrack {
+                        id: t.id,
+                        bbox: t.bbox,
+                        score: t.score,
+                        class_id: t.class_id,
+                        world: t.world,
+                        interpolated: false,
+                    };
+                    (pos, st)
+                }));
                 merges.extend(out.merges);
                 progress.inc(1);
             }
@@ -430,31 +391,43 @@ fn track_video(
         }
         Mode::Offline => {
             let result = track_sequence(&inputs, params)?;
-            for (frame, f) in result.frames.iter().zip(&seq.frames) {
-                for t in &frame.tracks {
-                    mot_rows.push(mot_result(
-                        f.frame_number,
-                        t.id,
-                        &t.bbox,
-                        t.score,
-                        args.class_column.then_some(t.class_id),
-                    ));
-                    if let Some(row) = t.world.as_ref().and_then(|w| {
-                        to_row(
-                            f.frame_number,
-                            frame.time_s,
-                            t.id,
-                            t.class_id,
-                            t.score,
-                            w,
-                            t.interpolated,
-                        )
-                    }) {
-                        geo_rows.push(row);
-                    }
-                }
+            for (pos, frame) in result.frames.iter().enumerate() {
+                tracked.extend(frame.tracks.iter().map(|t| (pos, *t)));
             }
             progress.inc(inputs.len() as u64);
+        }
+    }
+
+    let reference = geolocator.as_ref().map(|g| g.reference());
+    let mut mot_rows = Vec::with_capacity(tracked.len());
+    let mut geo_rows = Vec::with_capacity(tracked.len());
+    for (pos, t) in &tracked {
+        let f = &seq.frames[*pos];
+        mot_rows.push(mot_result(
+            f.frame_number,
+            t.id,
+            &t.bbox,
+            t.score,
+            args.class_column.then_some(t.class_id),
+        ));
+        if let (Some(world), Some(reference)) = (&t.world, reference) {
+            let geodetic =
+                reference.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
+            geo_rows.push(TrackRow {
+                frame: f.frame_number,
+                time_s: f.time_s,
+                track_id: t.id,
+                class_id: t.class_id,
+                score: t.score,
+                lat_deg: geodetic.lat_deg,
+                lon_deg: geodetic.lon_deg,
+                north_m: world.pos_ne_m.x,
+                east_m: world.pos_ne_m.y,
+                vel_north_mps: world.vel_ne_m_s.x,
+                vel_east_mps: world.vel_ne_m_s.y,
+                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
+                interpolated: t.interpolated,
+            });
         }
     }
 

@@ -59,8 +59,10 @@ impl Link {
         // Reject malformed addresses at once instead of retrying forever.
         let proto = address.split(':').next().unwrap_or("");
         anyhow::ensure!(
-            matches!(proto, "udpout" | "udpin" | "udpbcast" | "tcpin" | "tcpout" | "serial")
-                && address.matches(':').count() >= 2,
+            matches!(
+                proto,
+                "udpout" | "udpin" | "udpbcast" | "tcpin" | "tcpout" | "serial"
+            ) && address.matches(':').count() >= 2,
             "invalid --mavlink address `{address}`: expected udpout:HOST:PORT, udpin:HOST:PORT, \
              tcpin:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD"
         );
@@ -131,11 +133,27 @@ fn link_thread(
         };
         let broken = Arc::new(AtomicBool::new(false));
         {
-            let (conn, world, scheduler, clock, broken, seq) =
-                (conn.clone(), world.clone(), scheduler.clone(), clock.clone(), broken.clone(), seq.clone());
+            let (conn, world, scheduler, clock, broken, seq) = (
+                conn.clone(),
+                world.clone(),
+                scheduler.clone(),
+                clock.clone(),
+                broken.clone(),
+                seq.clone(),
+            );
             let spawned = std::thread::Builder::new()
                 .name("mavlink-recv".into())
-                .spawn(move || receive_loop(conn, &world, &scheduler, &clock, &broken, &seq, stream_oriented));
+                .spawn(move || {
+                    receive_loop(
+                        conn,
+                        &world,
+                        &scheduler,
+                        &clock,
+                        &broken,
+                        &seq,
+                        stream_oriented,
+                    )
+                });
             if let Err(e) = spawned {
                 tracing::error!(error = %e, "cannot start the MAVLink receive thread");
             }
