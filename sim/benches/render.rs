@@ -14,7 +14,10 @@ fn bench_render(c: &mut Criterion) {
             Ok(s) => s,
             Err(e) => panic!("{e}"),
         };
-        assert_eq!((scenario.camera.width_px, scenario.camera.height_px), (1280, 720));
+        assert_eq!(
+            (scenario.camera.width_px, scenario.camera.height_px),
+            (1280, 720)
+        );
         let optics = match Optics::new(&scenario) {
             Ok(o) => o,
             Err(e) => panic!("{e}"),

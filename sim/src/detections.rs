@@ -68,7 +68,12 @@ pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection>
         // Draw every random number whether or not it is used, so that one object's fate
         // does not shift the others'.
         let u_miss: f64 = rng.random();
-        let noise = [gauss(&mut rng), gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)];
+        let noise = [
+            gauss(&mut rng),
+            gauss(&mut rng),
+            gauss(&mut rng),
+            gauss(&mut rng),
+        ];
         let score_noise = gauss(&mut rng);
         let u_class: f64 = rng.random();
         if u_miss < miss_probability(det, size, b.visibility) {
@@ -81,7 +86,8 @@ pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection>
         let nh = (h * (1.0 + noise[3] * j)).max(1.0);
         let bbox = clip([cx - nw / 2.0, cy - nh / 2.0, nw, nh], w_img, h_img);
         let Some(bbox) = bbox else { continue };
-        let score = (0.3 + 0.62 * (1.0 - (-size / 18.0).exp()) + 0.08 * score_noise).clamp(0.02, 0.99);
+        let score =
+            (0.3 + 0.62 * (1.0 - (-size / 18.0).exp()) + 0.08 * score_noise).clamp(0.02, 0.99);
         if score < det.min_score {
             continue;
         }
@@ -120,7 +126,10 @@ pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection>
                 gu + gauss(&mut rng) * w_img * 0.05,
                 gv + gauss(&mut rng) * h_img * 0.05,
             ),
-            _ => (rng.random_range(0.0..w_img), rng.random_range(h_img * 0.3..h_img)),
+            _ => (
+                rng.random_range(0.0..w_img),
+                rng.random_range(h_img * 0.3..h_img),
+            ),
         };
         // Only on the water (a crest has to be on the sea).
         if optics

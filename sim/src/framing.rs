@@ -124,9 +124,15 @@ mod tests {
         let b = h.encode();
         assert_eq!(&b[0..4], b"MGSF");
         assert_eq!(FrameHeader::decode(&b), Ok(h));
-        assert_eq!(FrameHeader::decode(&b[..10]), Err(FramingError::Truncated(10)));
+        assert_eq!(
+            FrameHeader::decode(&b[..10]),
+            Err(FramingError::Truncated(10))
+        );
         let mut bad = b;
         bad[0] = b'X';
-        assert!(matches!(FrameHeader::decode(&bad), Err(FramingError::BadMagic(_))));
+        assert!(matches!(
+            FrameHeader::decode(&bad),
+            Err(FramingError::BadMagic(_))
+        ));
     }
 }

@@ -4,13 +4,13 @@
 //! All projection goes through [`mgmot::geo`]: the simulator has no camera model of its own.
 #![warn(missing_docs)]
 
-pub mod motion;
-pub mod objects;
-pub mod scenario;
-pub mod world;
-pub mod render;
-pub mod truth;
 pub mod detections;
 pub mod framing;
+pub mod motion;
+pub mod objects;
 pub mod output;
+pub mod render;
+pub mod scenario;
 pub mod telemetry;
+pub mod truth;
+pub mod world;

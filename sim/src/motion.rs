@@ -68,7 +68,8 @@ impl DroneTrack {
             _ => path.at(0.0).1.to_degrees(),
         };
         let mut prev_speed = 0.0;
-        let mut prev_alt = crate::scenario::profile_value(&drone.altitude_profile, drone.altitude_m, 0.0);
+        let mut prev_alt =
+            crate::scenario::profile_value(&drone.altitude_profile, drone.altitude_m, 0.0);
         let max_yaw_step = drone.max_yaw_rate_deg_s * DRONE_DT_S;
         let mut gimbal = GimbalProgram::new(scenario, seed);
 
@@ -83,9 +84,16 @@ impl DroneTrack {
             let (vn, ve) = if k == 0 {
                 (speed * tangent_rad.cos(), speed * tangent_rad.sin())
             } else {
-                ((p[0] - prev_p[0]) / DRONE_DT_S, (p[1] - prev_p[1]) / DRONE_DT_S)
+                (
+                    (p[0] - prev_p[0]) / DRONE_DT_S,
+                    (p[1] - prev_p[1]) / DRONE_DT_S,
+                )
             };
-            let vd = if k == 0 { 0.0 } else { -(alt - prev_alt) / DRONE_DT_S };
+            let vd = if k == 0 {
+                0.0
+            } else {
+                -(alt - prev_alt) / DRONE_DT_S
+            };
             let ground_speed = vn.hypot(ve);
             let prev_yaw = yaw_deg;
             if ground_speed > 0.3 {
@@ -94,8 +102,15 @@ impl DroneTrack {
                 yaw_deg += diff.clamp(-max_yaw_step, max_yaw_step);
             }
             let yaw_rate_rad_s = (yaw_deg - prev_yaw).to_radians() / DRONE_DT_S;
-            let accel_fwd = if k == 0 { 0.0 } else { (ground_speed - prev_speed) / DRONE_DT_S };
-            let roll_deg = (ground_speed * yaw_rate_rad_s / G_MPS2).atan().to_degrees().clamp(-35.0, 35.0);
+            let accel_fwd = if k == 0 {
+                0.0
+            } else {
+                (ground_speed - prev_speed) / DRONE_DT_S
+            };
+            let roll_deg = (ground_speed * yaw_rate_rad_s / G_MPS2)
+                .atan()
+                .to_degrees()
+                .clamp(-35.0, 35.0);
             let pitch_deg = -((accel_fwd / G_MPS2).atan().to_degrees()
                 + ground_speed * TILT_PER_MPS_DEG)
                 .clamp(-35.0, 35.0);
@@ -125,7 +140,8 @@ impl DroneTrack {
         let f = (x - i as f64).clamp(0.0, 1.0);
         let (a, b) = (&self.samples[i], &self.samples[j]);
         let lerp = |p: f64, q: f64| p + (q - p) * f;
-        let lerp3 = |p: [f64; 3], q: [f64; 3]| [lerp(p[0], q[0]), lerp(p[1], q[1]), lerp(p[2], q[2])];
+        let lerp3 =
+            |p: [f64; 3], q: [f64; 3]| [lerp(p[0], q[0]), lerp(p[1], q[1]), lerp(p[2], q[2])];
         DroneState {
             pos_ned_m: lerp3(a.pos_ned_m, b.pos_ned_m),
             vel_ned_mps: lerp3(a.vel_ned_mps, b.vel_ned_mps),
@@ -160,19 +176,36 @@ pub fn wrap_360(deg: f64) -> f64 {
 
 /// The horizontal path as a function of arc length.
 enum PathGeom {
-    Hover { p: [f64; 2], heading_rad: f64 },
-    Polyline { pts: Vec<[f64; 2]>, cum: Vec<f64>, looped: bool },
-    Circle { c: [f64; 2], r: f64, clockwise: bool },
+    Hover {
+        p: [f64; 2],
+        heading_rad: f64,
+    },
+    Polyline {
+        pts: Vec<[f64; 2]>,
+        cum: Vec<f64>,
+        looped: bool,
+    },
+    Circle {
+        c: [f64; 2],
+        r: f64,
+        clockwise: bool,
+    },
 }
 
 impl PathGeom {
     fn new(path: &Path2d) -> PathGeom {
         match path {
-            Path2d::Hover { at_ne_m, heading_deg } => PathGeom::Hover {
+            Path2d::Hover {
+                at_ne_m,
+                heading_deg,
+            } => PathGeom::Hover {
                 p: *at_ne_m,
                 heading_rad: heading_deg.to_radians(),
             },
-            Path2d::Waypoints { points_ne_m, looped } => {
+            Path2d::Waypoints {
+                points_ne_m,
+                looped,
+            } => {
                 let mut pts = points_ne_m.clone();
                 if *looped {
                     pts.push(points_ne_m[0]);
@@ -201,8 +234,14 @@ impl PathGeom {
                 let mut pts = Vec::new();
                 for leg in 0..*legs {
                     let off = f64::from(leg) * spacing_m;
-                    let base = [start_ne_m[0] + right[0] * off, start_ne_m[1] + right[1] * off];
-                    let end = [base[0] + fwd[0] * leg_length_m, base[1] + fwd[1] * leg_length_m];
+                    let base = [
+                        start_ne_m[0] + right[0] * off,
+                        start_ne_m[1] + right[1] * off,
+                    ];
+                    let end = [
+                        base[0] + fwd[0] * leg_length_m,
+                        base[1] + fwd[1] * leg_length_m,
+                    ];
                     if leg % 2 == 0 {
                         pts.push(base);
                         pts.push(end);
@@ -241,11 +280,19 @@ impl PathGeom {
                 if total <= 0.0 || pts.len() < 2 {
                     return (pts.first().copied().unwrap_or([0.0, 0.0]), 0.0);
                 }
-                let s = if *looped { s.rem_euclid(total) } else { s.min(total) };
+                let s = if *looped {
+                    s.rem_euclid(total)
+                } else {
+                    s.min(total)
+                };
                 let seg = cum.partition_point(|c| *c <= s).clamp(1, pts.len() - 1) - 1;
                 let (a, b) = (pts[seg], pts[seg + 1]);
                 let len = cum[seg + 1] - cum[seg];
-                let f = if len > 0.0 { ((s - cum[seg]) / len).clamp(0.0, 1.0) } else { 0.0 };
+                let f = if len > 0.0 {
+                    ((s - cum[seg]) / len).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
                 let p = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
                 ((p), (b[1] - a[1]).atan2(b[0] - a[0]))
             }
@@ -305,7 +352,10 @@ impl GimbalProgram {
             GimbalMode::Fixed => (0.0, 0.0),
             GimbalMode::Sweep => {
                 let ph = std::f64::consts::TAU * t / self.sweep_period_s;
-                (self.sweep_yaw_amp * ph.sin(), self.sweep_pitch_amp * (2.0 * ph).sin())
+                (
+                    self.sweep_yaw_amp * ph.sin(),
+                    self.sweep_pitch_amp * (2.0 * ph).sin(),
+                )
             }
             GimbalMode::Swings => {
                 if t >= self.next_swing_s {
@@ -314,7 +364,8 @@ impl GimbalProgram {
                     let p = self.rng.random_range(-1.0..=1.0) * self.swing_pitch_amp;
                     self.target = (y, p);
                 }
-                let move_towards = |cur: f64, tgt: f64, step: f64| cur + (tgt - cur).clamp(-step, step);
+                let move_towards =
+                    |cur: f64, tgt: f64, step: f64| cur + (tgt - cur).clamp(-step, step);
                 // Move both axes at the slew rate (a real gimbal's axes are independent).
                 self.current = (
                     move_towards(self.current.0, self.target.0, self.swing_step_deg),

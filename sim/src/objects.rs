@@ -81,7 +81,11 @@ impl SimObject {
         let n = a[0] + (b[0] - a[0]) * f;
         let e = a[1] + (b[1] - a[1]) * f;
         let h = a[2] + (b[2] - a[2]) * f;
-        let speed = if i == j { 0.0 } else { (b[0] - a[0]).hypot(b[1] - a[1]) / OBJECT_DT_S };
+        let speed = if i == j {
+            0.0
+        } else {
+            (b[0] - a[0]).hypot(b[1] - a[1]) / OBJECT_DT_S
+        };
         let class = self
             .class_changes
             .iter()
@@ -118,7 +122,11 @@ fn default_speed_range(class: ObjectClass) -> [f64; 2] {
 fn draw_size(class: ObjectClass, rng: &mut ChaCha8Rng) -> (f64, f64, f64) {
     match class {
         // Head and shoulders in a life jacket, mostly submerged.
-        ObjectClass::Swimmer => (rng.random_range(0.55..0.75), rng.random_range(0.45..0.6), 0.3),
+        ObjectClass::Swimmer => (
+            rng.random_range(0.55..0.75),
+            rng.random_range(0.45..0.6),
+            0.3,
+        ),
         ObjectClass::Boat => {
             let l = rng.random_range(5.0..12.0);
             (l, l * rng.random_range(0.32..0.42), 1.2 + 0.1 * l)
@@ -175,7 +183,9 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
                 rng.set_stream(stream);
                 stream += 1;
                 let id = objects.len() as u32 + 1;
-                let steps = ((scenario.duration_s + 2.0 - event.at_s).max(0.0) / OBJECT_DT_S).ceil() as usize + 1;
+                let steps = ((scenario.duration_s + 2.0 - event.at_s).max(0.0) / OBJECT_DT_S).ceil()
+                    as usize
+                    + 1;
                 // The jacket floats off beside the swimmer and drifts with the current.
                 let start = [state.pos_ned_m[0] + 0.4, state.pos_ned_m[1] + 0.2];
                 let track = drift(start, [0.0, 0.1], current, 0.1, steps, &mut rng);
@@ -197,15 +207,27 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
     objects
 }
 
-fn spawn(group: &ObjectGroup, id: u32, current: [f64; 2], n_steps: usize, rng: &mut ChaCha8Rng) -> SimObject {
+fn spawn(
+    group: &ObjectGroup,
+    id: u32,
+    current: [f64; 2],
+    n_steps: usize,
+    rng: &mut ChaCha8Rng,
+) -> SimObject {
     let r = group.spawn_radius_m * rng.random::<f64>().sqrt();
     let a = rng.random_range(0.0..std::f64::consts::TAU);
     let start = [
         group.spawn_center_ne_m[0] + r * a.cos(),
         group.spawn_center_ne_m[1] + r * a.sin(),
     ];
-    let [lo, hi] = group.speed_mps.unwrap_or_else(|| default_speed_range(group.class));
-    let speed = if hi > lo { rng.random_range(lo..=hi) } else { lo };
+    let [lo, hi] = group
+        .speed_mps
+        .unwrap_or_else(|| default_speed_range(group.class));
+    let speed = if hi > lo {
+        rng.random_range(lo..=hi)
+    } else {
+        lo
+    };
     let heading = match group.heading_deg {
         Some(h) => (h + group.heading_spread_deg * rng.random_range(-1.0..=1.0)).to_radians(),
         None => rng.random_range(0.0..std::f64::consts::TAU),
@@ -220,8 +242,21 @@ fn spawn(group: &ObjectGroup, id: u32, current: [f64; 2], n_steps: usize, rng: &
     let track = match group.class {
         ObjectClass::Swimmer => swim(start, speed, heading, hi, walk, current, n_steps, rng),
         ObjectClass::Boat | ObjectClass::Jetski => {
-            let turn_sigma = if group.class == ObjectClass::Jetski { 30.0 } else { 12.0 };
-            cruise(start, speed, heading, [lo, hi], walk, turn_sigma, n_steps, rng)
+            let turn_sigma = if group.class == ObjectClass::Jetski {
+                30.0
+            } else {
+                12.0
+            };
+            cruise(
+                start,
+                speed,
+                heading,
+                [lo, hi],
+                walk,
+                turn_sigma,
+                n_steps,
+                rng,
+            )
         }
         ObjectClass::LifeSavingAppliance => {
             let v = [speed * heading.cos(), speed * heading.sin()];
@@ -233,7 +268,11 @@ fn spawn(group: &ObjectGroup, id: u32, current: [f64; 2], n_steps: usize, rng: &
         id,
         initial_class: group.class,
         class_changes: Vec::new(),
-        lifejacket_until_s: if group.lifejacket { f64::INFINITY } else { f64::NEG_INFINITY },
+        lifejacket_until_s: if group.lifejacket {
+            f64::INFINITY
+        } else {
+            f64::NEG_INFINITY
+        },
         appears_s: 0.0,
         length_m: length,
         width_m: width,
@@ -284,7 +323,10 @@ fn swim(
             let want = v[1].atan2(v[0]);
             facing += crate::motion::wrap_180((want - facing).to_degrees()).to_radians() * 0.1;
         }
-        p = [p[0] + (v[0] + current[0]) * dt, p[1] + (v[1] + current[1]) * dt];
+        p = [
+            p[0] + (v[0] + current[0]) * dt,
+            p[1] + (v[1] + current[1]) * dt,
+        ];
     }
     out
 }
@@ -318,13 +360,15 @@ fn cruise(
             turn_left_rad = if rng.random::<bool>() { mag } else { -mag };
         }
         let deliberate = if turn_left_rad.abs() > 1e-6 {
-            let step = (20.0_f64.to_radians() * dt).min(turn_left_rad.abs()) * turn_left_rad.signum();
+            let step =
+                (20.0_f64.to_radians() * dt).min(turn_left_rad.abs()) * turn_left_rad.signum();
             turn_left_rad -= step;
             step
         } else {
             0.0
         };
-        turn_rate += -turn_rate * dt / 3.0 + walk * turn_sigma_deg_s.to_radians() * dt.sqrt() * normal(rng);
+        turn_rate +=
+            -turn_rate * dt / 3.0 + walk * turn_sigma_deg_s.to_radians() * dt.sqrt() * normal(rng);
         h += turn_rate * dt + deliberate;
         s += (speed - s) * dt / 10.0 + walk * 0.5 * dt.sqrt() * normal(rng);
         s = s.clamp(range[0], range[1].max(range[0]));
@@ -334,7 +378,14 @@ fn cruise(
 }
 
 /// Floating object: own velocity plus current plus a small random walk.
-fn drift(start: [f64; 2], v0: [f64; 2], current: [f64; 2], walk: f64, n: usize, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]> {
+fn drift(
+    start: [f64; 2],
+    v0: [f64; 2],
+    current: [f64; 2],
+    walk: f64,
+    n: usize,
+    rng: &mut ChaCha8Rng,
+) -> Vec<[f64; 3]> {
     let dt = OBJECT_DT_S;
     let mut p = start;
     let mut v = v0;
@@ -346,7 +397,10 @@ fn drift(start: [f64; 2], v0: [f64; 2], current: [f64; 2], walk: f64, n: usize, 
             *vk += -*vk * dt / 10.0 + walk * dt.sqrt() * normal(rng);
         }
         h += 0.05 * dt.sqrt() * normal(rng);
-        p = [p[0] + (v[0] + current[0]) * dt, p[1] + (v[1] + current[1]) * dt];
+        p = [
+            p[0] + (v[0] + current[0]) * dt,
+            p[1] + (v[1] + current[1]) * dt,
+        ];
     }
     out
 }
@@ -368,7 +422,9 @@ mod tests {
                             // Swimming speed <= 1 m/s plus the current (<= 0.12 m/s here).
                             assert!(st.speed_mps <= 1.0 + 0.12 + 1e-9, "{}", st.speed_mps)
                         }
-                        ObjectClass::Boat => assert!(st.speed_mps >= 2.0 - 1e-9 && st.speed_mps <= 12.0 + 1e-9),
+                        ObjectClass::Boat => {
+                            assert!(st.speed_mps >= 2.0 - 1e-9 && st.speed_mps <= 12.0 + 1e-9)
+                        }
                         ObjectClass::Buoy => assert_eq!(st.speed_mps, 0.0),
                         _ => {}
                     }

@@ -221,7 +221,10 @@ impl SeaDronesSee {
             info: Info {
                 year: "2024".into(),
                 version: "mgmot-sim".into(),
-                description: format!("mgmot-sim scenario {} seed {}: {}", s.name, world.seed, s.description),
+                description: format!(
+                    "mgmot-sim scenario {} seed {}: {}",
+                    s.name, world.seed, s.description
+                ),
                 contributor: "mgmot-sim".into(),
                 url: String::new(),
                 date_created: iso_time(s.origin.start_unix_s),
@@ -232,12 +235,36 @@ impl SeaDronesSee {
                 name: "generated".into(),
             }],
             categories: vec![
-                Category { supercategory: "ignored", id: 0, name: "ignored" },
-                Category { supercategory: "person", id: 1, name: "swimmer" },
-                Category { supercategory: "boat", id: 2, name: "boat" },
-                Category { supercategory: "boat", id: 3, name: "jetski" },
-                Category { supercategory: "object", id: 4, name: "life_saving_appliances" },
-                Category { supercategory: "object", id: 5, name: "buoy" },
+                Category {
+                    supercategory: "ignored",
+                    id: 0,
+                    name: "ignored",
+                },
+                Category {
+                    supercategory: "person",
+                    id: 1,
+                    name: "swimmer",
+                },
+                Category {
+                    supercategory: "boat",
+                    id: 2,
+                    name: "boat",
+                },
+                Category {
+                    supercategory: "boat",
+                    id: 3,
+                    name: "jetski",
+                },
+                Category {
+                    supercategory: "object",
+                    id: 4,
+                    name: "life_saving_appliances",
+                },
+                Category {
+                    supercategory: "object",
+                    id: 5,
+                    name: "buoy",
+                },
             ],
             videos: vec![Video {
                 id: 1,
@@ -277,7 +304,11 @@ impl SeaDronesSee {
             date_time: iso_time(unix),
             meta: Meta {
                 image_name: file_name.to_string(),
-                datetime_utc: iso_time(unix.floor()).replace('T', " ").chars().take(19).collect(),
+                datetime_utc: iso_time(unix.floor())
+                    .replace('T', " ")
+                    .chars()
+                    .take(19)
+                    .collect(),
                 latitude: round(g.lat_deg, 8),
                 longitude: round(g.lon_deg, 8),
                 height_above_takeoff_m: round(rep.altitude_m(), 3),
@@ -291,7 +322,12 @@ impl SeaDronesSee {
             },
         });
         for b in &ft.boxes {
-            let bbox = [round(b.bbox[0], 2), round(b.bbox[1], 2), round(b.bbox[2], 2), round(b.bbox[3], 2)];
+            let bbox = [
+                round(b.bbox[0], 2),
+                round(b.bbox[1], 2),
+                round(b.bbox[2], 2),
+                round(b.bbox[3], 2),
+            ];
             self.annotations.push(Annotation {
                 id: self.annotations.len() as u64 + 1,
                 image_id,

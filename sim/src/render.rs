@@ -72,7 +72,8 @@ impl Renderer {
         for y in 0..TEX {
             for x in 0..TEX {
                 let i = y * TEX + x;
-                let ph = (x as f32 / SWELL_TEXELS_PER_WAVE as f32 + 1.5 * phase[i]) * std::f32::consts::TAU;
+                let ph = (x as f32 / SWELL_TEXELS_PER_WAVE as f32 + 1.5 * phase[i])
+                    * std::f32::consts::TAU;
                 // Sharper crests than troughs, like real waves.
                 let s = 0.5 + 0.5 * ph.sin();
                 let v = (s * s * (0.4 + 0.9 * amp[i])).clamp(0.0, 1.0);
@@ -121,7 +122,14 @@ impl Renderer {
 
     /// Renders the frame captured at true time `t_s` into `rgb` (RGB24, `frame_bytes()`
     /// long); `with_objects = false` draws the sea only (used by tests).
-    pub fn render(&self, world: &World, optics: &Optics, t_s: f64, rgb: &mut [u8], with_objects: bool) {
+    pub fn render(
+        &self,
+        world: &World,
+        optics: &Optics,
+        t_s: f64,
+        rgb: &mut [u8],
+        with_objects: bool,
+    ) {
         let state = world.truth(t_s);
         let pose = optics.pose(&state);
         self.render_sea(optics, &pose, t_s, rgb);
@@ -147,7 +155,12 @@ impl Renderer {
     /// Fits the pixel -> (north, east, 1) homography from four pixels on the water.
     fn image_to_sea(&self, optics: &Optics, pose: &CameraPose) -> Option<Matrix3<f64>> {
         let (w, h) = (self.width as f64, self.height as f64);
-        let sea = |u: f64, v: f64| optics.model.project_to_sea(pose, &optics.sea, Pixel::new(u, v)).ok();
+        let sea = |u: f64, v: f64| {
+            optics
+                .model
+                .project_to_sea(pose, &optics.sea, Pixel::new(u, v))
+                .ok()
+        };
         let bottom = [(0.0, h), (w, h)];
         let b0 = sea(bottom[0].0, bottom[0].1)?;
         let b1 = sea(bottom[1].0, bottom[1].1)?;
@@ -271,19 +284,21 @@ impl Renderer {
         }
         // Texture coordinates in 24.8 fixed point, wrapping (the textures tile).
         let fx = |x: f64| ((x * 256.0) as i64) as i32;
-        Some(SeaPoint {
-            su: ctx.forms[2].dot(&p) * inv + ctx.swell_off,
-            sv: ctx.forms[3].dot(&p) * inv,
-            cu: ctx.forms[4].dot(&p) * inv + ctx.chop_off.0,
-            cv: ctx.forms[5].dot(&p) * inv + ctx.chop_off.1,
-            fixed: [0; 4],
-            c0,
-            c1,
-            amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
-            amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
-            sparkle: 3.0 * g,
-        }
-        .with_fixed(fx))
+        Some(
+            SeaPoint {
+                su: ctx.forms[2].dot(&p) * inv + ctx.swell_off,
+                sv: ctx.forms[3].dot(&p) * inv,
+                cu: ctx.forms[4].dot(&p) * inv + ctx.chop_off.0,
+                cv: ctx.forms[5].dot(&p) * inv + ctx.chop_off.1,
+                fixed: [0; 4],
+                c0,
+                c1,
+                amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
+                amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
+                sparkle: 3.0 * g,
+            }
+            .with_fixed(fx),
+        )
     }
 
     fn render_row(&self, ctx: &SeaFrame, v: usize, line: &mut [u8]) {
@@ -314,11 +329,17 @@ impl Renderer {
                     let damp_a = (b.amp_a - a.amp_a) * inv_n;
                     let damp_b = (b.amp_b - a.amp_b) * inv_n;
                     let dsparkle = (b.sparkle - a.sparkle) * inv_n;
-                    for px in line[u * BYTES_PER_PIXEL..end * BYTES_PER_PIXEL].chunks_exact_mut(BYTES_PER_PIXEL) {
+                    for px in line[u * BYTES_PER_PIXEL..end * BYTES_PER_PIXEL]
+                        .chunks_exact_mut(BYTES_PER_PIXEL)
+                    {
                         let swell = sample_bilinear_fixed(&self.swell, fxy[0], fxy[1]);
                         let chop = f32::from(self.chop[tex_index(fxy[2] >> 8, fxy[3] >> 8)]);
                         let shade = 1.0 + amp_a * (swell - 100.0) + amp_b * (chop - 128.0);
-                        let spark = if chop > 170.0 { (chop - 170.0) * sparkle } else { 0.0 };
+                        let spark = if chop > 170.0 {
+                            (chop - 170.0) * sparkle
+                        } else {
+                            0.0
+                        };
                         px[0] = (c0[0] * shade + c1[0] + spark) as u8;
                         px[1] = (c0[1] * shade + c1[1] + spark) as u8;
                         px[2] = (c0[2] * shade + c1[2] + spark) as u8;
@@ -341,12 +362,21 @@ impl Renderer {
                         match self.sea_point(ctx, x as f64 + 0.5, vc) {
                             None => px.copy_from_slice(&sky),
                             Some(p) => {
-                                let swell = sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
-                                let chop = f32::from(self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)]);
-                                let shade = 1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
-                                let spark = if chop > 170.0 { (chop - 170.0) * p.sparkle } else { 0.0 };
-                                for c in 0..3 {
-                                    px[c] = (p.c0[c] * shade + p.c1[c] + spark).clamp(0.0, 255.0) as u8;
+                                let swell =
+                                    sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
+                                let chop = f32::from(
+                                    self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)],
+                                );
+                                let shade =
+                                    1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
+                                let spark = if chop > 170.0 {
+                                    (chop - 170.0) * p.sparkle
+                                } else {
+                                    0.0
+                                };
+                                for (c, out) in px.iter_mut().enumerate() {
+                                    // Float-to-int `as` saturates to 0..=255.
+                                    *out = (p.c0[c] * shade + p.c1[c] + spark) as u8;
                                 }
                             }
                         }
@@ -370,7 +400,8 @@ impl Renderer {
     fn fill_sky(&self, rgb: &mut [u8], v0: usize, v1: usize) {
         for v in v0..v1 {
             let c = self.sky_at(v);
-            let line = &mut rgb[v * self.width * BYTES_PER_PIXEL..(v + 1) * self.width * BYTES_PER_PIXEL];
+            let line =
+                &mut rgb[v * self.width * BYTES_PER_PIXEL..(v + 1) * self.width * BYTES_PER_PIXEL];
             for px in line.chunks_exact_mut(BYTES_PER_PIXEL) {
                 px[0] = c[0] as u8;
                 px[1] = c[1] as u8;
@@ -493,7 +524,9 @@ fn fit_homography(src: &[(f64, f64); 4], dst: &[(f64, f64); 4]) -> Option<Matrix
         b[r + 1] = sy;
     }
     let sol = a.lu().solve(&b)?;
-    let m = Matrix3::new(sol[0], sol[1], sol[2], sol[3], sol[4], sol[5], sol[6], sol[7], 1.0);
+    let m = Matrix3::new(
+        sol[0], sol[1], sol[2], sol[3], sol[4], sol[5], sol[6], sol[7], 1.0,
+    );
     // Orientation: w must be positive at the water pixels used for the fit.
     let w0 = m[(2, 0)] * src[0].0 + m[(2, 1)] * src[0].1 + m[(2, 2)];
     let m = if w0 < 0.0 { -m } else { m };
@@ -513,9 +546,9 @@ impl Canvas<'_> {
             return;
         }
         let i = (y * self.width + x) * BYTES_PER_PIXEL;
-        for k in 0..3 {
-            let old = f32::from(self.rgb[i + k]);
-            self.rgb[i + k] = (old + (f32::from(c[k]) - old) * alpha).clamp(0.0, 255.0) as u8;
+        for (px, ck) in self.rgb[i..i + BYTES_PER_PIXEL].iter_mut().zip(c) {
+            let old = f32::from(*px);
+            *px = (old + (f32::from(ck) - old) * alpha) as u8;
         }
     }
 
@@ -594,13 +627,19 @@ fn polygon_area(p: &[(f64, f64)]) -> f64 {
 
 /// Andrew's monotone chain.
 fn convex_hull(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut p: Vec<(f64, f64)> = pts.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+    let mut p: Vec<(f64, f64)> = pts
+        .iter()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
     p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     p.dedup();
     if p.len() < 3 {
         return p;
     }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
+        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+    };
     let mut lower: Vec<(f64, f64)> = Vec::new();
     for &q in &p {
         while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], q) <= 0.0 {
@@ -684,7 +723,11 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
                 vest.extend(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.14, 12));
                 part(vest, VIVID[pal % VIVID.len()], 1.0);
             } else {
-                part(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.03, 10), [40, 45, 50], 0.9);
+                part(
+                    ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.03, 10),
+                    [40, 45, 50],
+                    0.9,
+                );
             }
             let mut head = ring(l * 0.3, 0.0, 0.13, 0.12, 0.08, 8);
             head.extend(ring(l * 0.3, 0.0, 0.12, 0.11, h, 8));
@@ -716,7 +759,11 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
                     0.3,
                 );
             }
-            let deck = if o.class == ObjectClass::Boat { h * 0.45 } else { 0.5 };
+            let deck = if o.class == ObjectClass::Boat {
+                h * 0.45
+            } else {
+                0.5
+            };
             let outline = |up: f64, inset: f64| {
                 vec![
                     [-l * 0.5 * inset, -w * 0.5 * inset, up],
@@ -729,7 +776,11 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
             let hull_c = HULLS[pal % HULLS.len()];
             let mut hull = outline(0.0, 1.0);
             hull.extend(outline(deck, 1.0));
-            part(hull, [hull_c[0] / 2 + 20, hull_c[1] / 2 + 20, hull_c[2] / 2 + 20], 1.0);
+            part(
+                hull,
+                [hull_c[0] / 2 + 20, hull_c[1] / 2 + 20, hull_c[2] / 2 + 20],
+                1.0,
+            );
             part(outline(deck, 0.92), hull_c, 1.0);
             if o.class == ObjectClass::Boat {
                 let mut cabin = Vec::new();
@@ -762,7 +813,11 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
             let mut body = ring(0.0, 0.0, l * 0.5, w * 0.5, 0.0, 14);
             body.extend(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14));
             let col = VIVID[pal % 3];
-            part(body, [col[0] / 2 + 10, col[1] / 2 + 10, col[2] / 2 + 10], 1.0);
+            part(
+                body,
+                [col[0] / 2 + 10, col[1] / 2 + 10, col[2] / 2 + 10],
+                1.0,
+            );
             part(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14), col, 1.0);
         }
         ObjectClass::LifeSavingAppliance => {
@@ -787,8 +842,16 @@ mod tests {
         let r = Renderer::new(&s, 1);
         let pose = optics.pose(&world.truth(10.0));
         let hm = r.image_to_sea(&optics, &pose).unwrap();
-        for (u, v) in [(100.0, 500.0), (640.0, 360.0), (1200.0, 700.0), (10.0, 250.0)] {
-            let p = optics.model.project_to_sea(&pose, &optics.sea, Pixel::new(u, v)).unwrap();
+        for (u, v) in [
+            (100.0, 500.0),
+            (640.0, 360.0),
+            (1200.0, 700.0),
+            (10.0, 250.0),
+        ] {
+            let p = optics
+                .model
+                .project_to_sea(&pose, &optics.sea, Pixel::new(u, v))
+                .unwrap();
             let q = hm * Vector3::new(u, v, 1.0);
             assert!(q.z > 0.0);
             assert!((q.x / q.z - p.x).abs() < 1e-6 && (q.y / q.z - p.y).abs() < 1e-6);

@@ -50,17 +50,47 @@ pub enum ScenarioError {
 
 /// The scenarios shipped with the simulator: (name, TOML text).
 pub const SHIPPED: &[(&str, &str)] = &[
-    ("calm_baseline", include_str!("../scenarios/calm_baseline.toml")),
+    (
+        "calm_baseline",
+        include_str!("../scenarios/calm_baseline.toml"),
+    ),
     ("fast_drone", include_str!("../scenarios/fast_drone.toml")),
-    ("gimbal_swings", include_str!("../scenarios/gimbal_swings.toml")),
-    ("leave_and_return", include_str!("../scenarios/leave_and_return.toml")),
-    ("high_altitude_tiny", include_str!("../scenarios/high_altitude_tiny.toml")),
-    ("swimmer_group", include_str!("../scenarios/swimmer_group.toml")),
-    ("boats_crossing", include_str!("../scenarios/boats_crossing.toml")),
-    ("camera_desync", include_str!("../scenarios/camera_desync.toml")),
-    ("gimbal_pitch_bias", include_str!("../scenarios/gimbal_pitch_bias.toml")),
-    ("telemetry_dropout", include_str!("../scenarios/telemetry_dropout.toml")),
-    ("mixed_mission_soak", include_str!("../scenarios/mixed_mission_soak.toml")),
+    (
+        "gimbal_swings",
+        include_str!("../scenarios/gimbal_swings.toml"),
+    ),
+    (
+        "leave_and_return",
+        include_str!("../scenarios/leave_and_return.toml"),
+    ),
+    (
+        "high_altitude_tiny",
+        include_str!("../scenarios/high_altitude_tiny.toml"),
+    ),
+    (
+        "swimmer_group",
+        include_str!("../scenarios/swimmer_group.toml"),
+    ),
+    (
+        "boats_crossing",
+        include_str!("../scenarios/boats_crossing.toml"),
+    ),
+    (
+        "camera_desync",
+        include_str!("../scenarios/camera_desync.toml"),
+    ),
+    (
+        "gimbal_pitch_bias",
+        include_str!("../scenarios/gimbal_pitch_bias.toml"),
+    ),
+    (
+        "telemetry_dropout",
+        include_str!("../scenarios/telemetry_dropout.toml"),
+    ),
+    (
+        "mixed_mission_soak",
+        include_str!("../scenarios/mixed_mission_soak.toml"),
+    ),
 ];
 
 /// A complete scenario.
@@ -616,12 +646,14 @@ impl Scenario {
         if !(finite(d.max_yaw_rate_deg_s) && d.max_yaw_rate_deg_s > 0.0) {
             return bad("drone.max_yaw_rate_deg_s", "must be > 0");
         }
-        check_profile(&d.speed_profile, 0.0, 40.0)
-            .or_else(|p| bad("drone.speed_profile", &p))?;
+        check_profile(&d.speed_profile, 0.0, 40.0).or_else(|p| bad("drone.speed_profile", &p))?;
         check_profile(&d.altitude_profile, 1.0, 2000.0)
             .or_else(|p| bad("drone.altitude_profile", &p))?;
         match &d.path {
-            Path2d::Hover { at_ne_m, heading_deg } => {
+            Path2d::Hover {
+                at_ne_m,
+                heading_deg,
+            } => {
                 if !at_ne_m.iter().all(|v| finite(*v)) || !finite(*heading_deg) {
                     return bad("drone.path", "values must be finite");
                 }
@@ -669,7 +701,10 @@ impl Scenario {
         }
         let g = &self.gimbal;
         if !(finite(g.pitch_deg) && (0.0..=90.0).contains(&g.pitch_deg)) {
-            return bad("gimbal.pitch_deg", "must be within [0, 90] (below the horizon)");
+            return bad(
+                "gimbal.pitch_deg",
+                "must be within [0, 90] (below the horizon)",
+            );
         }
         if g.mode == GimbalMode::Sweep && !(finite(g.sweep_period_s) && g.sweep_period_s > 0.1) {
             return bad("gimbal.sweep_period_s", "must be > 0.1");
@@ -728,11 +763,17 @@ impl Scenario {
                 return bad(&format!("objects[{i}].spawn_radius_m"), "must be >= 0");
             }
             if !(finite(o.random_walk) && (0.0..=5.0).contains(&o.random_walk)) {
-                return bad(&format!("objects[{i}].random_walk"), "must be within [0, 5]");
+                return bad(
+                    &format!("objects[{i}].random_walk"),
+                    "must be within [0, 5]",
+                );
             }
             if let Some([l, w]) = o.size_m {
                 if !(finite(l) && finite(w) && l > 0.05 && w > 0.05 && l < 100.0 && w < 100.0) {
-                    return bad(&format!("objects[{i}].size_m"), "must be within (0.05, 100)");
+                    return bad(
+                        &format!("objects[{i}].size_m"),
+                        "must be within (0.05, 100)",
+                    );
                 }
             }
         }
@@ -740,7 +781,11 @@ impl Scenario {
             let Some(group) = self.objects.get(e.group) else {
                 return bad(
                     &format!("events[{i}].group"),
-                    &format!("no object group {} (there are {})", e.group, self.objects.len()),
+                    &format!(
+                        "no object group {} (there are {})",
+                        e.group,
+                        self.objects.len()
+                    ),
                 );
             };
             if e.member >= group.count {
@@ -754,7 +799,10 @@ impl Scenario {
             }
             match e.kind {
                 EventKind::RemoveLifejacket if group.class != ObjectClass::Swimmer => {
-                    return bad(&format!("events[{i}].kind"), "remove_lifejacket needs a swimmer group");
+                    return bad(
+                        &format!("events[{i}].kind"),
+                        "remove_lifejacket needs a swimmer group",
+                    );
                 }
                 EventKind::ChangeClass if e.to.is_none() => {
                     return bad(&format!("events[{i}].to"), "change_class needs `to`");
@@ -857,7 +905,9 @@ mod tests {
     #[test]
     fn unknown_field_is_named() {
         let text = SHIPPED[0].1.replace("[camera]", "[camera]\nfsp = 3");
-        let err = Scenario::from_toml(&text, "x.toml").unwrap_err().to_string();
+        let err = Scenario::from_toml(&text, "x.toml")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("fsp"), "{err}");
         assert!(err.contains("x.toml"), "{err}");
     }
@@ -865,7 +915,9 @@ mod tests {
     #[test]
     fn out_of_range_field_is_named() {
         let text = SHIPPED[0].1.replace("fps = 30", "fps = -2");
-        let err = Scenario::from_toml(&text, "x.toml").unwrap_err().to_string();
+        let err = Scenario::from_toml(&text, "x.toml")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("camera.fps"), "{err}");
     }
 

@@ -7,13 +7,15 @@ use crate::scenario::YawFrame;
 use crate::world::World;
 // MOUNT_ORIENTATION is deprecated in common.xml but still what many gimbal drivers and
 // ground stations read; the simulator sends it alongside the gimbal protocol v2 message.
+use mavlink::dialects::common::{
+    GimbalDeviceFlags, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType,
+};
 #[allow(deprecated)]
 use mavlink::dialects::common::{
-    MavMessage, ATTITUDE_DATA, COMMAND_ACK_DATA, COMMAND_LONG_DATA, GIMBAL_DEVICE_ATTITUDE_STATUS_DATA,
-    GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, HOME_POSITION_DATA, MOUNT_ORIENTATION_DATA, SYSTEM_TIME_DATA,
-    TIMESYNC_DATA,
+    MavMessage, ATTITUDE_DATA, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    GIMBAL_DEVICE_ATTITUDE_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,
+    HOME_POSITION_DATA, MOUNT_ORIENTATION_DATA, SYSTEM_TIME_DATA, TIMESYNC_DATA,
 };
-use mavlink::dialects::common::{GimbalDeviceFlags, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType};
 use mavlink::Message;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -70,7 +72,9 @@ impl Stream {
     pub fn default_interval_s(self) -> f64 {
         match self {
             Stream::Heartbeat | Stream::SystemTime => 1.0,
-            Stream::GlobalPositionInt | Stream::GimbalDeviceAttitudeStatus | Stream::MountOrientation => 0.1,
+            Stream::GlobalPositionInt
+            | Stream::GimbalDeviceAttitudeStatus
+            | Stream::MountOrientation => 0.1,
             Stream::Attitude => 0.05,
             Stream::HomePosition => 2.0,
         }
@@ -221,7 +225,8 @@ impl<'w> Autopilot<'w> {
             }
             Stream::Attitude => {
                 let prev = w.reported(t - 0.05);
-                let rate = |a: f64, b: f64| (crate::motion::wrap_180(a - b)).to_radians() as f32 / 0.05;
+                let rate =
+                    |a: f64, b: f64| (crate::motion::wrap_180(a - b)).to_radians() as f32 / 0.05;
                 MavMessage::ATTITUDE(ATTITUDE_DATA {
                     time_boot_ms: boot_ms,
                     roll: rep.roll_deg.to_radians() as f32,
@@ -260,7 +265,9 @@ impl<'w> Autopilot<'w> {
                     angular_velocity_x: f32::NAN,
                     angular_velocity_y: f32::NAN,
                     angular_velocity_z: f32::NAN,
-                    flags: flags | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_ROLL_LOCK | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_PITCH_LOCK,
+                    flags: flags
+                        | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_ROLL_LOCK
+                        | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_PITCH_LOCK,
                     ..Default::default()
                 })
             }
@@ -269,7 +276,7 @@ impl<'w> Autopilot<'w> {
                 roll: 0.0,
                 pitch: -rep.cam_pitch_deg as f32,
                 yaw: rep.gimbal_yaw_vehicle_deg() as f32,
-                ..Default::default()
+                yaw_absolute: rep.cam_heading_deg as f32,
             }),
             Stream::HomePosition => {
                 let o = &w.scenario.origin;
@@ -296,22 +303,36 @@ impl<'w> Autopilot<'w> {
 
     /// The answer to an incoming message at sim time `now_s`: replies to send (TIMESYNC,
     /// COMMAND_ACK, requested messages). Interval changes are applied to `scheduler`.
-    pub fn handle(&self, msg: &MavMessage, now_s: f64, scheduler: &mut Scheduler) -> Vec<MavMessage> {
+    /// `from` is the sender's (system id, component id), the target of the replies.
+    pub fn handle(
+        &self,
+        msg: &MavMessage,
+        from: (u8, u8),
+        now_s: f64,
+        scheduler: &mut Scheduler,
+    ) -> Vec<MavMessage> {
         match msg {
             MavMessage::TIMESYNC(ts) if ts.tc1 == 0 => {
                 let now_ns = (self.world.autopilot_time_us(now_s) as i64).saturating_mul(1000);
                 vec![MavMessage::TIMESYNC(TIMESYNC_DATA {
                     tc1: now_ns,
                     ts1: ts.ts1,
-                    ..Default::default()
+                    target_system: from.0,
+                    target_component: from.1,
                 })]
             }
-            MavMessage::COMMAND_LONG(cmd) => self.command(cmd, now_s, scheduler),
+            MavMessage::COMMAND_LONG(cmd) => self.command(cmd, from, now_s, scheduler),
             _ => Vec::new(),
         }
     }
 
-    fn command(&self, cmd: &COMMAND_LONG_DATA, now_s: f64, scheduler: &mut Scheduler) -> Vec<MavMessage> {
+    fn command(
+        &self,
+        cmd: &COMMAND_LONG_DATA,
+        from: (u8, u8),
+        now_s: f64,
+        scheduler: &mut Scheduler,
+    ) -> Vec<MavMessage> {
         let sys = self.world.scenario.telemetry.system_id;
         if cmd.target_system != 0 && cmd.target_system != sys {
             return Vec::new();
@@ -320,16 +341,22 @@ impl<'w> Autopilot<'w> {
             MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
                 command: cmd.command,
                 result,
+                target_system: from.0,
+                target_component: from.1,
                 ..Default::default()
             })
         };
         match cmd.command {
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
-                let result = scheduler.set_interval(cmd.param1 as u32, f64::from(cmd.param2), now_s);
+                let result =
+                    scheduler.set_interval(cmd.param1 as u32, f64::from(cmd.param2), now_s);
                 vec![ack(result)]
             }
             MavCmd::MAV_CMD_REQUEST_MESSAGE => match Stream::from_message_id(cmd.param1 as u32) {
-                Some(stream) => vec![ack(MavResult::MAV_RESULT_ACCEPTED), self.message(stream, now_s)],
+                Some(stream) => vec![
+                    ack(MavResult::MAV_RESULT_ACCEPTED),
+                    self.message(stream, now_s),
+                ],
                 None => vec![ack(MavResult::MAV_RESULT_UNSUPPORTED)],
             },
             _ => vec![ack(MavResult::MAV_RESULT_UNSUPPORTED)],
@@ -346,7 +373,9 @@ pub fn message_name(msg: &MavMessage) -> &'static str {
 mod tests {
     use super::*;
     use crate::scenario::Scenario;
-    use mgmot::geo::attitude::{camera_from_gimbal_quaternion, camera_from_heading_pitch_deg, GimbalYawFrame};
+    use mgmot::geo::attitude::{
+        camera_from_gimbal_quaternion, camera_from_heading_pitch_deg, GimbalYawFrame,
+    };
 
     fn world(name: &str) -> World {
         let s = Scenario::load(name).unwrap();
@@ -370,9 +399,18 @@ mod tests {
     fn set_interval_and_disable() {
         let w = world("calm_baseline");
         let mut sch = Scheduler::new(&w);
-        assert_eq!(sch.set_interval(30, 200_000.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
-        assert_eq!(sch.set_interval(33, -1.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
-        assert_eq!(sch.set_interval(9999, 1e5, 0.0), MavResult::MAV_RESULT_UNSUPPORTED);
+        assert_eq!(
+            sch.set_interval(30, 200_000.0, 0.0),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(
+            sch.set_interval(33, -1.0, 0.0),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(
+            sch.set_interval(9999, 1e5, 0.0),
+            MavResult::MAV_RESULT_UNSUPPORTED
+        );
         let msgs = sch.due(10.0);
         let att = msgs.iter().filter(|(_, m)| *m == Stream::Attitude).count();
         assert!((48..=53).contains(&att), "{att}");
@@ -388,7 +426,9 @@ mod tests {
             let w = World::new(s, 3);
             let ap = Autopilot::new(&w).unwrap();
             let t = 12.3;
-            let MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) = ap.message(Stream::GimbalDeviceAttitudeStatus, t) else {
+            let MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) =
+                ap.message(Stream::GimbalDeviceAttitudeStatus, t)
+            else {
                 panic!()
             };
             let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
@@ -408,8 +448,13 @@ mod tests {
                 YawFrame::Vehicle => GimbalYawFrame::Vehicle,
             };
             let cam = camera_from_gimbal_quaternion(&q, yf, &vehicle);
-            let want = camera_from_heading_pitch_deg(truth.cam_heading_deg, truth.cam_pitch_deg, 0.0);
-            assert!(cam.angle_to(&want) < 1e-5, "{frame:?}: {}", cam.angle_to(&want));
+            let want =
+                camera_from_heading_pitch_deg(truth.cam_heading_deg, truth.cam_pitch_deg, 0.0);
+            assert!(
+                cam.angle_to(&want) < 1e-5,
+                "{frame:?}: {}",
+                cam.angle_to(&want)
+            );
         }
     }
 
@@ -418,8 +463,19 @@ mod tests {
         let w = world("calm_baseline");
         let ap = Autopilot::new(&w).unwrap();
         let mut sch = Scheduler::new(&w);
-        let r = ap.handle(&MavMessage::TIMESYNC(TIMESYNC_DATA { tc1: 0, ts1: 42, ..Default::default() }), 1.0, &mut sch);
-        let MavMessage::TIMESYNC(ts) = &r[0] else { panic!() };
+        let r = ap.handle(
+            &MavMessage::TIMESYNC(TIMESYNC_DATA {
+                tc1: 0,
+                ts1: 42,
+                ..Default::default()
+            }),
+            (255, 190),
+            1.0,
+            &mut sch,
+        );
+        let MavMessage::TIMESYNC(ts) = &r[0] else {
+            panic!()
+        };
         assert_eq!(ts.ts1, 42);
         assert_eq!(ts.tc1, (121_000_000i64) * 1000);
         let req = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
@@ -427,9 +483,11 @@ mod tests {
             param1: 242.0,
             ..Default::default()
         });
-        let r = ap.handle(&req, 1.0, &mut sch);
+        let r = ap.handle(&req, (255, 190), 1.0, &mut sch);
         assert_eq!(r.len(), 2);
-        assert!(matches!(&r[0], MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_ACCEPTED));
+        assert!(
+            matches!(&r[0], MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)
+        );
         assert!(matches!(&r[1], MavMessage::HOME_POSITION(_)));
     }
 }

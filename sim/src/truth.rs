@@ -48,7 +48,11 @@ impl Optics {
     pub fn pose(&self, state: &DroneState) -> CameraPose {
         CameraPose {
             position_ned: Vector3::from(state.pos_ned_m),
-            attitude: camera_from_heading_pitch_deg(state.cam_heading_deg, state.cam_pitch_deg, 0.0),
+            attitude: camera_from_heading_pitch_deg(
+                state.cam_heading_deg,
+                state.cam_pitch_deg,
+                0.0,
+            ),
         }
     }
 }
@@ -130,7 +134,11 @@ pub fn project_object(optics: &Optics, pose: &CameraPose, o: &ObjectState) -> Op
     }
     let clipped = [x0, y0, x1 - x0, y1 - y0];
     let area = full[2] * full[3];
-    let visibility = if area > 0.0 { (clipped[2] * clipped[3] / area).min(1.0) } else { 0.0 };
+    let visibility = if area > 0.0 {
+        (clipped[2] * clipped[3] / area).min(1.0)
+    } else {
+        0.0
+    };
     if clipped[2].max(clipped[3]) < MIN_BOX_PX || visibility < MIN_VISIBILITY {
         return None;
     }
@@ -161,11 +169,6 @@ pub fn frame_truth(world: &World, optics: &Optics, index: u64) -> FrameTruth {
         pose,
         boxes,
     }
-}
-
-/// MOTChallenge class number of a class (its SeaDronesSee category id).
-pub fn mot_class(class: ObjectClass) -> u32 {
-    class.category_id()
 }
 
 #[cfg(test)]
@@ -206,7 +209,11 @@ mod tests {
         for index in (0..1800).step_by(60) {
             for b in frame_truth(&world, &optics, index).boxes {
                 if b.object.class == ObjectClass::Swimmer {
-                    assert!(b.full_bbox[2].max(b.full_bbox[3]) <= 10.0, "{:?}", b.full_bbox);
+                    assert!(
+                        b.full_bbox[2].max(b.full_bbox[3]) <= 10.0,
+                        "{:?}",
+                        b.full_bbox
+                    );
                     n += 1;
                 }
             }

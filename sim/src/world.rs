@@ -126,7 +126,8 @@ impl World {
     pub fn reported(&self, t_s: f64) -> Reported {
         let truth = self.drone.at(t_s);
         let f = &self.scenario.faults;
-        let k = ((t_s.max(0.0) / DRONE_DT_S).round() as usize).min(self.noise.len().saturating_sub(1));
+        let k =
+            ((t_s.max(0.0) / DRONE_DT_S).round() as usize).min(self.noise.len().saturating_sub(1));
         let nz = self.noise.get(k).copied().unwrap_or_default();
         Reported {
             pos_ned_m: [
@@ -138,8 +139,11 @@ impl World {
             roll_deg: truth.roll_deg + f.attitude_bias_deg[0] + nz.attitude_deg[0],
             pitch_deg: truth.pitch_deg + f.attitude_bias_deg[1] + nz.attitude_deg[1],
             yaw_deg: wrap_360(truth.yaw_deg + f.attitude_bias_deg[2] + nz.attitude_deg[2]),
-            cam_heading_deg: wrap_360(truth.cam_heading_deg + f.gimbal_yaw_bias_deg + nz.gimbal_deg[0]),
-            cam_pitch_deg: (truth.cam_pitch_deg + f.gimbal_pitch_bias_deg + nz.gimbal_deg[1]).clamp(-90.0, 90.0),
+            cam_heading_deg: wrap_360(
+                truth.cam_heading_deg + f.gimbal_yaw_bias_deg + nz.gimbal_deg[0],
+            ),
+            cam_pitch_deg: (truth.cam_pitch_deg + f.gimbal_pitch_bias_deg + nz.gimbal_deg[1])
+                .clamp(-90.0, 90.0),
         }
     }
 

@@ -49,7 +49,14 @@ fn lists_the_shipped_scenarios() {
 fn help_documents_every_mode() {
     let o = sim(&["--help"]);
     let out = String::from_utf8_lossy(&o.stdout);
-    for word in ["run", "render", "detections", "list", "udpout", "Unix socket"] {
+    for word in [
+        "run",
+        "render",
+        "detections",
+        "list",
+        "udpout",
+        "Unix socket",
+    ] {
         assert!(out.contains(word), "{word} missing from --help:\n{out}");
     }
 }
@@ -58,7 +65,13 @@ fn help_documents_every_mode() {
 fn unknown_scenario_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x");
-    let o = sim(&["render", "-s", "no_such_scenario", "-o", out.to_str().unwrap()]);
+    let o = sim(&[
+        "render",
+        "-s",
+        "no_such_scenario",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "unknown scenario `no_such_scenario`");
 }
 
@@ -67,23 +80,59 @@ fn invalid_toml_names_file_line_and_field() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, "name = \"x\"\nduration_s = 10\n[origin]\nlat_deg = 1\nlon_deg = 2\n[drone]\nsped_mps = 3\n[drone.path]\nkind = \"hover\"\nat_ne_m = [0, 0]\n").unwrap();
-    let o = sim(&["detections", "-s", bad.to_str().unwrap(), "-o", dir.path().join("d.json").to_str().unwrap()]);
+    let o = sim(&[
+        "detections",
+        "-s",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.path().join("d.json").to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "sped_mps");
     assert_clean_failure(&o, "bad.toml");
     assert_clean_failure(&o, "line 7");
 
     std::fs::write(&bad, "name = \"x\"\nduration_s = [\n").unwrap();
-    let o = sim(&["render", "-s", bad.to_str().unwrap(), "-o", dir.path().join("r").to_str().unwrap()]);
+    let o = sim(&[
+        "render",
+        "-s",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "bad.toml");
 }
 
 #[test]
 fn bad_addresses_are_clear_errors() {
-    let o = sim(&["run", "-s", "calm_baseline", "--duration-s", "0.2", "--mavlink", "carrier-pigeon:1"]);
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--mavlink",
+        "carrier-pigeon:1",
+    ]);
     assert_clean_failure(&o, "invalid --mavlink address");
-    let o = sim(&["run", "-s", "calm_baseline", "--duration-s", "0.2", "--frames", "tcp:1"]);
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "tcp:1",
+    ]);
     assert_clean_failure(&o, "invalid --frames");
-    let o = sim(&["run", "-s", "calm_baseline", "--duration-s", "0.2", "--frames", "unix:/nonexistent-dir/x.sock"]);
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "unix:/nonexistent-dir/x.sock",
+    ]);
     assert_clean_failure(&o, "cannot listen on /nonexistent-dir/x.sock");
 }
 
@@ -91,9 +140,22 @@ fn bad_addresses_are_clear_errors() {
 fn unreachable_tcp_peer_is_retried_not_fatal() {
     // Nothing listens on this port: the link retries in the background and the run ends
     // normally.
-    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
     let addr = format!("tcpout:127.0.0.1:{port}");
-    let o = sim(&["-v", "run", "-s", "calm_baseline", "--duration-s", "1.5", "--mavlink", &addr]);
+    let o = sim(&[
+        "-v",
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "1.5",
+        "--mavlink",
+        &addr,
+    ]);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("retrying"), "{err}");
@@ -101,7 +163,16 @@ fn unreachable_tcp_peer_is_retried_not_fatal() {
 
 fn render_truth(dir: &Path, seed: &str) {
     let o = sim(&[
-        "render", "-s", "swimmer_group", "--seed", seed, "--duration-s", "8", "--format", "none", "-o",
+        "render",
+        "-s",
+        "swimmer_group",
+        "--seed",
+        seed,
+        "--duration-s",
+        "8",
+        "--format",
+        "none",
+        "-o",
         dir.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -154,7 +225,12 @@ fn seadronessee_json_has_the_dataset_layout() {
         .as_array()
         .unwrap()
         .iter()
-        .map(|c| (c["id"].as_u64().unwrap(), c["name"].as_str().unwrap().to_string()))
+        .map(|c| {
+            (
+                c["id"].as_u64().unwrap(),
+                c["name"].as_str().unwrap().to_string(),
+            )
+        })
         .collect();
     assert!(cats.contains(&(1, "swimmer".into())) && cats.contains(&(5, "buoy".into())));
     // MOT gt: frame,id,x,y,w,h,1,class,visibility
@@ -170,9 +246,18 @@ fn seadronessee_json_has_the_dataset_layout() {
 fn detections_in_both_formats() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("det.json");
-    let o = sim(&["detections", "-s", "boats_crossing", "--duration-s", "5", "-o", json.to_str().unwrap()]);
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "--duration-s",
+        "5",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let dets: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let dets: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let dets = dets.as_array().unwrap();
     assert!(!dets.is_empty());
     for d in dets {
@@ -182,12 +267,30 @@ fn detections_in_both_formats() {
     }
     assert!(dir.path().join("det_gt/gt/gt.txt").exists());
     let txt = dir.path().join("det.txt");
-    let o = sim(&["detections", "-s", "boats_crossing", "--duration-s", "5", "-o", txt.to_str().unwrap()]);
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "--duration-s",
+        "5",
+        "-o",
+        txt.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let lines = std::fs::read_to_string(&txt).unwrap();
-    assert_eq!(lines.lines().count(), dets.len(), "same seed, same detections in both formats");
+    assert_eq!(
+        lines.lines().count(),
+        dets.len(),
+        "same seed, same detections in both formats"
+    );
     assert!(lines.lines().all(|l| l.split(',').count() == 10));
-    let o = sim(&["detections", "-s", "boats_crossing", "-o", dir.path().join("d.csv").to_str().unwrap()]);
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "-o",
+        dir.path().join("d.csv").to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "must end in .json");
 }
 
@@ -197,12 +300,43 @@ fn renders_png_and_jpg_images() {
     for fmt in ["png", "jpg"] {
         let out = dir.path().join(fmt);
         let o = sim(&[
-            "render", "-s", "calm_baseline", "--duration-s", "1", "--every", "10", "--width", "320", "--height",
-            "180", "--format", fmt, "-o", out.to_str().unwrap(),
+            "render",
+            "-s",
+            "calm_baseline",
+            "--duration-s",
+            "1",
+            "--every",
+            "10",
+            "--width",
+            "320",
+            "--height",
+            "180",
+            "--format",
+            fmt,
+            "-o",
+            out.to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let img = image::open(out.join(format!("img1/000011.{fmt}"))).unwrap();
         assert_eq!((img.width(), img.height()), (320, 180));
         assert!(out.join("seqinfo.ini").exists());
+    }
+}
+
+#[test]
+fn missing_v4l2_device_is_a_clear_error() {
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "v4l2:/dev/video-does-not-exist",
+    ]);
+    if cfg!(feature = "v4l2") {
+        assert_clean_failure(&o, "no V4L2 device /dev/video-does-not-exist");
+    } else {
+        assert_clean_failure(&o, "`v4l2` cargo feature");
     }
 }

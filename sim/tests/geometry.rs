@@ -10,7 +10,10 @@ use mgmot_sim::world::World;
 use nalgebra::Vector3;
 
 fn overlaps(a: &[f64; 4], b: &[f64; 4], margin: f64) -> bool {
-    a[0] - margin < b[0] + b[2] && b[0] - margin < a[0] + a[2] && a[1] - margin < b[1] + b[3] && b[1] - margin < a[1] + a[3]
+    a[0] - margin < b[0] + b[2]
+        && b[0] - margin < a[0] + a[2]
+        && a[1] - margin < b[1] + b[3]
+        && b[1] - margin < a[1] + a[3]
 }
 
 #[test]
@@ -36,13 +39,19 @@ fn rendered_objects_sit_in_their_boxes() {
             renderer.render(&world, &optics, ft.t_s, &mut without, false);
             for b in &ft.boxes {
                 // The world position projects to the box centre.
-                let p = optics.model.project_to_image(&ft.pose, &Vector3::from(b.object.pos_ned_m)).unwrap();
+                let p = optics
+                    .model
+                    .project_to_image(&ft.pose, &Vector3::from(b.object.pos_ned_m))
+                    .unwrap();
                 if b.visibility >= 1.0 {
                     assert!((p.u - (b.bbox[0] + b.bbox[2] / 2.0)).abs() < 0.5);
                     assert!((p.v - (b.bbox[1] + b.bbox[3] / 2.0)).abs() < 0.5);
                 }
                 // And the sea point under the box centre is the object's position.
-                let sea = optics.model.project_to_sea(&ft.pose, &optics.sea, Pixel::new(p.u, p.v)).unwrap();
+                let sea = optics
+                    .model
+                    .project_to_sea(&ft.pose, &optics.sea, Pixel::new(p.u, p.v))
+                    .unwrap();
                 assert!((sea - Vector3::from(b.object.pos_ned_m)).norm() < 1e-6);
 
                 if b.visibility < 1.0 || b.bbox[2].max(b.bbox[3]) < 4.0 {
@@ -50,7 +59,10 @@ fn rendered_objects_sit_in_their_boxes() {
                 }
                 // Isolated objects only: wakes and trailing submerged bodies of neighbours
                 // would otherwise fall into the box.
-                let alone = ft.boxes.iter().all(|o| o.object.id == b.object.id || !overlaps(&o.bbox, &b.bbox, 25.0));
+                let alone = ft
+                    .boxes
+                    .iter()
+                    .all(|o| o.object.id == b.object.id || !overlaps(&o.bbox, &b.bbox, 25.0));
                 if !alone {
                     continue;
                 }
@@ -59,7 +71,9 @@ fn rendered_objects_sit_in_their_boxes() {
                 for v in (y.floor() as usize)..((y + h).ceil() as usize).min(360) {
                     for u in (x.floor() as usize)..((x + w).ceil() as usize).min(640) {
                         let i = (v * 640 + u) * 3;
-                        let d: i32 = (0..3).map(|c| (i32::from(with[i + c]) - i32::from(without[i + c])).abs()).sum();
+                        let d: i32 = (0..3)
+                            .map(|c| (i32::from(with[i + c]) - i32::from(without[i + c])).abs())
+                            .sum();
                         if d > 30 {
                             n += 1.0;
                             su += u as f64 + 0.5;
@@ -67,7 +81,12 @@ fn rendered_objects_sit_in_their_boxes() {
                         }
                     }
                 }
-                assert!(n >= 1.0, "{name} t={t}: object {} drew nothing in its box {:?}", b.object.id, b.bbox);
+                assert!(
+                    n >= 1.0,
+                    "{name} t={t}: object {} drew nothing in its box {:?}",
+                    b.object.id,
+                    b.bbox
+                );
                 let (cu, cv) = (su / n, sv / n);
                 let tol_u = (0.3 * w).max(1.5);
                 let tol_v = (0.3 * h).max(1.5);

@@ -9,7 +9,10 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 
 fn pymavlink_available() -> Result<(), String> {
-    match Command::new("python3").args(["-c", "import pymavlink"]).output() {
+    match Command::new("python3")
+        .args(["-c", "import pymavlink"])
+        .output()
+    {
         Err(e) => Err(format!("python3 not runnable: {e}")),
         Ok(o) if !o.status.success() => Err(format!(
             "pymavlink not importable ({}); install it with `pip install pymavlink`",
@@ -25,8 +28,15 @@ fn pymavlink_decodes_the_telemetry() {
         eprintln!("SKIPPED pymavlink_decodes_the_telemetry: {why}");
         return;
     }
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../scripts/sim_pymavlink_decode.py");
-    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scripts/sim_pymavlink_decode.py"
+    );
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
     let mut py = Command::new("python3")
         .args([script, "--port", &port.to_string(), "--seconds", "4"])
         .stdout(Stdio::piped())
@@ -76,7 +86,11 @@ fn pymavlink_decodes_the_telemetry() {
         assert!(count(n) > 0, "{n} not decoded");
     }
     // Rates from the autopilot's own timestamps (+-15 %: jitter is 5 %).
-    for (n, hz) in [("ATTITUDE", 20.0), ("GLOBAL_POSITION_INT", 10.0), ("GIMBAL_DEVICE_ATTITUDE_STATUS", 10.0)] {
+    for (n, hz) in [
+        ("ATTITUDE", 20.0),
+        ("GLOBAL_POSITION_INT", 10.0),
+        ("GIMBAL_DEVICE_ATTITUDE_STATUS", 10.0),
+    ] {
         assert!((rate(n) - hz).abs() < 0.15 * hz, "{n}: {} Hz", rate(n));
     }
     assert!(count("HEARTBEAT") >= 3, "heartbeat 1 Hz over 4 s");
@@ -84,11 +98,16 @@ fn pymavlink_decodes_the_telemetry() {
     assert_eq!(j["timesync_reply"]["ts1"], 123456789);
     assert!(j["timesync_reply"]["tc1"].as_i64().unwrap() > 0);
     let acks = j["acks"].as_array().unwrap();
-    assert!(acks.iter().any(|a| a["command"] == 512 && a["result"] == 0), "{acks:?}");
+    assert!(
+        acks.iter().any(|a| a["command"] == 512 && a["result"] == 0),
+        "{acks:?}"
+    );
     // Position near the scenario origin, scaled as MAVLink says (degE7).
     let lat = j["samples"]["GLOBAL_POSITION_INT"]["lat"].as_f64().unwrap() / 1e7;
     assert!((lat - 47.6721).abs() < 0.01, "{lat}");
-    let q = j["samples"]["GIMBAL_DEVICE_ATTITUDE_STATUS"]["q"].as_array().unwrap();
+    let q = j["samples"]["GIMBAL_DEVICE_ATTITUDE_STATUS"]["q"]
+        .as_array()
+        .unwrap();
     let norm: f64 = q.iter().map(|v| v.as_f64().unwrap().powi(2)).sum();
     assert!((norm - 1.0).abs() < 1e-4);
 }

@@ -19,7 +19,16 @@ fn telemetry_over_a_pseudo_terminal() {
     nix::sys::termios::tcsetattr(&pty.slave, nix::sys::termios::SetArg::TCSANOW, &tio).unwrap();
     let addr = format!("serial:{}:57600", slave_path.display());
     let mut child = Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args(["run", "-s", "calm_baseline", "--realtime", "--duration-s", "3", "--mavlink", &addr])
+        .args([
+            "run",
+            "-s",
+            "calm_baseline",
+            "--realtime",
+            "--duration-s",
+            "3",
+            "--mavlink",
+            &addr,
+        ])
         .env("RUST_LOG", "warn")
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -39,15 +48,31 @@ fn telemetry_over_a_pseudo_terminal() {
     let deadline = Instant::now() + Duration::from_secs(8);
     while Instant::now() < deadline {
         match rx.recv_timeout(Duration::from_millis(200)) {
-            Ok(m) => *counts.entry(mavlink::Message::message_name(&m)).or_default() += 1,
+            Ok(m) => {
+                *counts
+                    .entry(mavlink::Message::message_name(&m))
+                    .or_default() += 1
+            }
             Err(_) if child.try_wait().ok().flatten().is_some() => break,
             Err(_) => {}
         }
     }
     let out = child.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for name in ["HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "GIMBAL_DEVICE_ATTITUDE_STATUS"] {
-        assert!(counts.get(name).copied().unwrap_or(0) > 0, "{name} missing: {counts:?}");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for name in [
+        "HEARTBEAT",
+        "ATTITUDE",
+        "GLOBAL_POSITION_INT",
+        "GIMBAL_DEVICE_ATTITUDE_STATUS",
+    ] {
+        assert!(
+            counts.get(name).copied().unwrap_or(0) > 0,
+            "{name} missing: {counts:?}"
+        );
     }
     // 3 s at 20 Hz, minus start-up: most of the ATTITUDE stream arrives intact.
     assert!(counts["ATTITUDE"] >= 40, "{counts:?}");

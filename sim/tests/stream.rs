@@ -48,7 +48,8 @@ fn read_frame(s: &mut UnixStream) -> Option<(FrameHeader, Vec<u8>)> {
 
 /// Parses every MAVLink 2 message in the datagrams received until `stop`.
 fn collect_udp(sock: &UdpSocket, stop: impl Fn() -> bool) -> Vec<MavMessage> {
-    sock.set_read_timeout(Some(Duration::from_millis(100))).unwrap();
+    sock.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
     let mut msgs = Vec::new();
     let mut buf = [0u8; 2048];
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -71,8 +72,20 @@ fn lockstep_frames_and_udp_telemetry() {
     let frames_arg = format!("unix:{}", sock_path.display());
     let mav_arg = format!("udpout:127.0.0.1:{port}");
     let mut child = spawn(&[
-        "run", "-s", "camera_desync", "--lockstep", "--duration-s", "2", "--width", "160", "--height", "90",
-        "--frames", &frames_arg, "--mavlink", &mav_arg,
+        "run",
+        "-s",
+        "camera_desync",
+        "--lockstep",
+        "--duration-s",
+        "2",
+        "--width",
+        "160",
+        "--height",
+        "90",
+        "--frames",
+        &frames_arg,
+        "--mavlink",
+        &mav_arg,
     ]);
     let mut s = connect_retry(&sock_path);
     let reader = std::thread::spawn(move || {
@@ -95,7 +108,11 @@ fn lockstep_frames_and_udp_telemetry() {
         // Autopilot clock: boot at 120 s, 30 fps, camera clock 200 ms late (the scenario's
         // desync fault).
         let want_us = 120_000_000 + (k as u64 * 1_000_000) / 30 + 200_000;
-        assert!(h.capture_time_us.abs_diff(want_us) <= 1, "{} vs {want_us}", h.capture_time_us);
+        assert!(
+            h.capture_time_us.abs_diff(want_us) <= 1,
+            "{} vs {want_us}",
+            h.capture_time_us
+        );
     }
     assert_ne!(frames[0].1, frames[59].1, "the picture changes");
 
@@ -108,10 +125,16 @@ fn lockstep_frames_and_udp_telemetry() {
     let c = |n: &str| counts.get(n).copied().unwrap_or(0);
     assert!((38..=44).contains(&c("ATTITUDE")), "{counts:?}");
     assert!((19..=22).contains(&c("GLOBAL_POSITION_INT")), "{counts:?}");
-    assert!((19..=22).contains(&c("GIMBAL_DEVICE_ATTITUDE_STATUS")), "{counts:?}");
+    assert!(
+        (19..=22).contains(&c("GIMBAL_DEVICE_ATTITUDE_STATUS")),
+        "{counts:?}"
+    );
     assert!((19..=22).contains(&c("MOUNT_ORIENTATION")), "{counts:?}");
     assert!((2..=3).contains(&c("HEARTBEAT")), "{counts:?}");
-    assert!(c("SYSTEM_TIME") >= 2 && c("HOME_POSITION") >= 1, "{counts:?}");
+    assert!(
+        c("SYSTEM_TIME") >= 2 && c("HOME_POSITION") >= 1,
+        "{counts:?}"
+    );
 }
 
 #[test]
@@ -120,8 +143,18 @@ fn realtime_survives_a_consumer_that_disconnects() {
     let sock_path = dir.path().join("rt.sock");
     let frames_arg = format!("unix:{}", sock_path.display());
     let child = spawn(&[
-        "run", "-s", "calm_baseline", "--realtime", "--duration-s", "2.5", "--width", "96", "--height", "64",
-        "--frames", &frames_arg,
+        "run",
+        "-s",
+        "calm_baseline",
+        "--realtime",
+        "--duration-s",
+        "2.5",
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--frames",
+        &frames_arg,
     ]);
     let mut s = connect_retry(&sock_path);
     let (h, _) = read_frame(&mut s).unwrap();
@@ -143,9 +176,22 @@ fn realtime_survives_a_consumer_that_disconnects() {
 
 #[test]
 fn answers_timesync_and_commands_over_udpin() {
-    let port = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let port = UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
     let mav_arg = format!("udpin:127.0.0.1:{port}");
-    let mut child = spawn(&["run", "-s", "calm_baseline", "--realtime", "--duration-s", "20", "--mavlink", &mav_arg]);
+    let mut child = spawn(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--realtime",
+        "--duration-s",
+        "20",
+        "--mavlink",
+        &mav_arg,
+    ]);
     let cfg = mavlink::UdpConfig::new(format!("127.0.0.1:{port}"), mavlink::UdpMode::Udpout)
         .read_timeout(Duration::from_millis(200));
     let mut conn = mavlink::Connectable::connect::<MavMessage>(&cfg).unwrap();
@@ -156,7 +202,11 @@ fn answers_timesync_and_commands_over_udpin() {
         sequence: 0,
     };
     let requests = [
-        MavMessage::TIMESYNC(TIMESYNC_DATA { tc1: 0, ts1: 777, ..Default::default() }),
+        MavMessage::TIMESYNC(TIMESYNC_DATA {
+            tc1: 0,
+            ts1: 777,
+            ..Default::default()
+        }),
         MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
             command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
             param1: 30.0,
@@ -193,7 +243,9 @@ fn answers_timesync_and_commands_over_udpin() {
         match m {
             MavMessage::TIMESYNC(t) if t.ts1 == 777 && t.tc1 > 0 => timesync = true,
             MavMessage::COMMAND_ACK(a) => acks.push((a.command, a.result)),
-            MavMessage::ATTITUDE(_) if sent_at.is_some_and(|t| t.elapsed() > Duration::from_secs(1)) => {
+            MavMessage::ATTITUDE(_)
+                if sent_at.is_some_and(|t| t.elapsed() > Duration::from_secs(1)) =>
+            {
                 attitude_after.push(Instant::now())
             }
             _ => {}
@@ -202,8 +254,24 @@ fn answers_timesync_and_commands_over_udpin() {
     let _ = child.kill();
     let _ = child.wait();
     assert!(timesync, "no TIMESYNC answer");
-    assert!(acks.contains(&(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, MavResult::MAV_RESULT_ACCEPTED)), "{acks:?}");
-    assert!(acks.contains(&(MavCmd::MAV_CMD_REQUEST_MESSAGE, MavResult::MAV_RESULT_ACCEPTED)), "{acks:?}");
+    assert!(
+        acks.contains(&(
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            MavResult::MAV_RESULT_ACCEPTED
+        )),
+        "{acks:?}"
+    );
+    assert!(
+        acks.contains(&(
+            MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            MavResult::MAV_RESULT_ACCEPTED
+        )),
+        "{acks:?}"
+    );
     // ATTITUDE slowed from 20 Hz to 2 Hz: at most ~8 in the last ~4 s.
-    assert!((4..=10).contains(&attitude_after.len()), "{} ATTITUDE after the change", attitude_after.len());
+    assert!(
+        (4..=10).contains(&attitude_after.len()),
+        "{} ATTITUDE after the change",
+        attitude_after.len()
+    );
 }

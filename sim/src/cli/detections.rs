@@ -42,7 +42,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let world = args.scenario.world()?;
     let optics = Optics::new(&world.scenario).context("camera or origin invalid")?;
     let gt_dir = args.gt_dir.clone().unwrap_or_else(|| {
-        let stem = args.out.file_stem().and_then(|s| s.to_str()).unwrap_or("detections");
+        let stem = args
+            .out
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("detections");
         args.out.with_file_name(format!("{stem}_gt"))
     });
     let mut truth = TruthWriter::create(&gt_dir, &world)?;
@@ -63,10 +67,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     pb.finish_and_clear();
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create {}", parent.display()))?;
     }
     let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?,
+        std::fs::File::create(&args.out)
+            .with_context(|| format!("cannot create {}", args.out.display()))?,
     );
     if coco {
         serde_json::to_writer(&mut f, &all)?;

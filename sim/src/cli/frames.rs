@@ -30,19 +30,29 @@ impl FrameSink {
         if let Some(dev) = spec.strip_prefix("v4l2:") {
             #[cfg(feature = "v4l2")]
             {
-                return Ok(FrameSink::V4l2(super::frames_v4l2::V4l2Sink::open(dev, width, height)?));
+                return Ok(FrameSink::V4l2(super::frames_v4l2::V4l2Sink::open(
+                    dev, width, height,
+                )?));
             }
             #[cfg(not(feature = "v4l2"))]
             {
                 let _ = (width, height);
-                anyhow::bail!("v4l2 output ({dev}) needs mgmot-sim built with the `v4l2` cargo feature");
+                anyhow::bail!(
+                    "v4l2 output ({dev}) needs mgmot-sim built with the `v4l2` cargo feature"
+                );
             }
         }
         anyhow::bail!("invalid --frames `{spec}`: expected unix:/path/to.sock or v4l2:/dev/videoN")
     }
 
     /// Sends one frame. `wait` (lockstep) blocks until a consumer takes it, up to `wait_for`.
-    pub fn send(&mut self, header: &FrameHeader, rgb: &[u8], wait: bool, wait_for: Duration) -> anyhow::Result<bool> {
+    pub fn send(
+        &mut self,
+        header: &FrameHeader,
+        rgb: &[u8],
+        wait: bool,
+        wait_for: Duration,
+    ) -> anyhow::Result<bool> {
         match self {
             FrameSink::Unix(s) => s.send(header, rgb, wait, wait_for),
             #[cfg(feature = "v4l2")]
@@ -81,9 +91,11 @@ impl UnixServer {
                 "{} exists and is not a socket; not replacing it",
                 path.display()
             );
-            std::fs::remove_file(&path).with_context(|| format!("cannot remove stale socket {}", path.display()))?;
+            std::fs::remove_file(&path)
+                .with_context(|| format!("cannot remove stale socket {}", path.display()))?;
         }
-        let listener = UnixListener::bind(&path).with_context(|| format!("cannot listen on {}", path.display()))?;
+        let listener = UnixListener::bind(&path)
+            .with_context(|| format!("cannot listen on {}", path.display()))?;
         listener.set_nonblocking(true)?;
         tracing::info!(path = %path.display(), "frame socket listening");
         Ok(UnixServer {
@@ -108,14 +120,22 @@ impl UnixServer {
     }
 
     /// Returns whether the frame was delivered.
-    fn send(&mut self, header: &FrameHeader, rgb: &[u8], wait: bool, wait_for: Duration) -> anyhow::Result<bool> {
+    fn send(
+        &mut self,
+        header: &FrameHeader,
+        rgb: &[u8],
+        wait: bool,
+        wait_for: Duration,
+    ) -> anyhow::Result<bool> {
         let deadline = Instant::now() + wait_for;
         loop {
             if self.client.is_none() {
                 self.try_accept()?;
             }
             if let Some(client) = self.client.as_mut() {
-                let result = client.write_all(&header.encode()).and_then(|_| client.write_all(rgb));
+                let result = client
+                    .write_all(&header.encode())
+                    .and_then(|_| client.write_all(rgb));
                 match result {
                     Ok(()) => return Ok(true),
                     Err(e) => {

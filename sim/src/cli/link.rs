@@ -59,8 +59,10 @@ impl Link {
         // Reject malformed addresses at once instead of retrying forever.
         let proto = address.split(':').next().unwrap_or("");
         anyhow::ensure!(
-            matches!(proto, "udpout" | "udpin" | "udpbcast" | "tcpin" | "tcpout" | "serial")
-                && address.matches(':').count() >= 2,
+            matches!(
+                proto,
+                "udpout" | "udpin" | "udpbcast" | "tcpin" | "tcpout" | "serial"
+            ) && address.matches(':').count() >= 2,
             "invalid --mavlink address `{address}`: expected udpout:HOST:PORT, udpin:HOST:PORT, \
              tcpin:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD"
         );
@@ -131,11 +133,27 @@ fn link_thread(
         };
         let broken = Arc::new(AtomicBool::new(false));
         {
-            let (conn, world, scheduler, clock, broken, seq) =
-                (conn.clone(), world.clone(), scheduler.clone(), clock.clone(), broken.clone(), seq.clone());
+            let (conn, world, scheduler, clock, broken, seq) = (
+                conn.clone(),
+                world.clone(),
+                scheduler.clone(),
+                clock.clone(),
+                broken.clone(),
+                seq.clone(),
+            );
             let spawned = std::thread::Builder::new()
                 .name("mavlink-recv".into())
-                .spawn(move || receive_loop(conn, &world, &scheduler, &clock, &broken, &seq, stream_oriented));
+                .spawn(move || {
+                    receive_loop(
+                        conn,
+                        &world,
+                        &scheduler,
+                        &clock,
+                        &broken,
+                        &seq,
+                        stream_oriented,
+                    )
+                });
             if let Err(e) = spawned {
                 tracing::error!(error = %e, "cannot start the MAVLink receive thread");
             }
@@ -178,9 +196,12 @@ fn receive_loop(
     };
     while !broken.load(Ordering::Relaxed) {
         match conn.recv() {
-            Ok((_, msg)) => {
+            Ok((from, msg)) => {
+                // System ids above 255 exist only in MAVLink 2 extensions of the header; the
+                // reply targets are u8 fields.
+                let sender = (u8::try_from(from.system_id).unwrap_or(0), from.component_id);
                 let replies = match scheduler.lock() {
-                    Ok(mut s) => autopilot.handle(&msg, clock.get(), &mut s),
+                    Ok(mut s) => autopilot.handle(&msg, sender, clock.get(), &mut s),
                     Err(_) => return,
                 };
                 for r in replies {

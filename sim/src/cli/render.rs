@@ -53,11 +53,12 @@ pub struct TruthWriter {
 impl TruthWriter {
     /// Creates `dir` and the truth files in it.
     pub fn create(dir: &Path, world: &World) -> anyhow::Result<TruthWriter> {
-        std::fs::create_dir_all(dir.join("gt")).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir.join("gt"))
+            .with_context(|| format!("cannot create {}", dir.display()))?;
         let open = |p: PathBuf| -> anyhow::Result<BufWriter<File>> {
-            Ok(BufWriter::new(
-                File::create(&p).with_context(|| format!("cannot create {}", p.display()))?,
-            ))
+            Ok(BufWriter::new(File::create(&p).with_context(|| {
+                format!("cannot create {}", p.display())
+            })?))
         };
         let gt = open(dir.join("gt").join("gt.txt"))?;
         let mut world_csv = open(dir.join("world.csv"))?;
@@ -75,9 +76,16 @@ impl TruthWriter {
     }
 
     /// Adds one frame's truth; `file_name` is the image path relative to the folder.
-    pub fn add(&mut self, world: &World, optics: &Optics, ft: &FrameTruth, file_name: &str) -> anyhow::Result<()> {
+    pub fn add(
+        &mut self,
+        world: &World,
+        optics: &Optics,
+        ft: &FrameTruth,
+        file_name: &str,
+    ) -> anyhow::Result<()> {
         self.gt.write_all(output::mot_gt_lines(ft).as_bytes())?;
-        self.world_csv.write_all(output::world_csv_lines(ft, optics).as_bytes())?;
+        self.world_csv
+            .write_all(output::world_csv_lines(ft, optics).as_bytes())?;
         self.camera_csv
             .write_all(output::camera_csv_line(ft, world, optics).as_bytes())?;
         self.sds.add_frame(world, optics, ft, file_name);
@@ -112,7 +120,9 @@ impl TruthWriter {
 /// Progress bar for `n` frames (hidden when stderr is not a terminal).
 pub fn progress(n: u64) -> ProgressBar {
     let pb = ProgressBar::new(n);
-    if let Ok(style) = ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta}") {
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta}")
+    {
         pb.set_style(style);
     }
     pb
@@ -130,7 +140,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let img_dir = args.out.join("img1");
     if args.format != ImageFormat::None {
-        std::fs::create_dir_all(&img_dir).with_context(|| format!("cannot create {}", img_dir.display()))?;
+        std::fs::create_dir_all(&img_dir)
+            .with_context(|| format!("cannot create {}", img_dir.display()))?;
     }
     let mut truth = TruthWriter::create(&args.out, &world)?;
     let n = world.scenario.frame_count();

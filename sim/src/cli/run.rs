@@ -54,10 +54,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let scheduler = Arc::new(Mutex::new(Scheduler::new(&world)));
     let clock = Arc::new(SimClock::default());
     let link = match &args.mavlink {
-        Some(addr) => Some(Link::start(addr.clone(), world.clone(), scheduler.clone(), clock.clone())?),
+        Some(addr) => Some(Link::start(
+            addr.clone(),
+            world.clone(),
+            scheduler.clone(),
+            clock.clone(),
+        )?),
         None => None,
     };
-    let (w, h) = (world.scenario.camera.width_px, world.scenario.camera.height_px);
+    let (w, h) = (
+        world.scenario.camera.width_px,
+        world.scenario.camera.height_px,
+    );
     let mut sink = match &args.frames {
         Some(spec) => Some(FrameSink::open(spec, w, h)?),
         None => None,
@@ -84,7 +92,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     loop {
         let next_frame = (k < n_frames).then(|| world.frame_time_s(k) + latency_s);
-        let next_tel = scheduler.lock().ok().and_then(|s| s.next_due_s()).filter(|t| *t <= end_s);
+        let next_tel = scheduler
+            .lock()
+            .ok()
+            .and_then(|s| s.next_due_s())
+            .filter(|t| *t <= end_s);
         let t = match (next_frame, next_tel) {
             (Some(a), Some(b)) => a.min(b),
             (Some(a), None) => a,
