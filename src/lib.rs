@@ -10,4 +10,8 @@
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 #![warn(missing_docs)]
 
+pub mod eval;
+pub mod formats;
 pub mod geo;
+pub mod logging;
+pub mod track;

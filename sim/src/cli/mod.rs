@@ -99,7 +99,7 @@ impl ScenarioArgs {
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logging(cli.verbose);
+    mgmot::logging::init(tracing::Level::INFO, cli.verbose);
     let result = match cli.command {
         Command::List(a) => list::run(a),
         Command::Run(a) => run::run(a),
@@ -113,18 +113,4 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn init_logging(verbose: u8) {
-    let default = match verbose {
-        0 => "info",
-        1 => "debug",
-        _ => "trace",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
 }
