@@ -374,9 +374,9 @@ impl Renderer {
                                 } else {
                                     0.0
                                 };
-                                for c in 0..3 {
-                                    px[c] =
-                                        (p.c0[c] * shade + p.c1[c] + spark).clamp(0.0, 255.0) as u8;
+                                for (c, out) in px.iter_mut().enumerate() {
+                                    // Float-to-int `as` saturates to 0..=255.
+                                    *out = (p.c0[c] * shade + p.c1[c] + spark) as u8;
                                 }
                             }
                         }
@@ -546,9 +546,9 @@ impl Canvas<'_> {
             return;
         }
         let i = (y * self.width + x) * BYTES_PER_PIXEL;
-        for k in 0..3 {
-            let old = f32::from(self.rgb[i + k]);
-            self.rgb[i + k] = (old + (f32::from(c[k]) - old) * alpha).clamp(0.0, 255.0) as u8;
+        for (px, ck) in self.rgb[i..i + BYTES_PER_PIXEL].iter_mut().zip(c) {
+            let old = f32::from(*px);
+            *px = (old + (f32::from(ck) - old) * alpha) as u8;
         }
     }
 

@@ -276,7 +276,7 @@ impl<'w> Autopilot<'w> {
                 roll: 0.0,
                 pitch: -rep.cam_pitch_deg as f32,
                 yaw: rep.gimbal_yaw_vehicle_deg() as f32,
-                ..Default::default()
+                yaw_absolute: rep.cam_heading_deg as f32,
             }),
             Stream::HomePosition => {
                 let o = &w.scenario.origin;
@@ -303,9 +303,11 @@ impl<'w> Autopilot<'w> {
 
     /// The answer to an incoming message at sim time `now_s`: replies to send (TIMESYNC,
     /// COMMAND_ACK, requested messages). Interval changes are applied to `scheduler`.
+    /// `from` is the sender's (system id, component id), the target of the replies.
     pub fn handle(
         &self,
         msg: &MavMessage,
+        from: (u8, u8),
         now_s: f64,
         scheduler: &mut Scheduler,
     ) -> Vec<MavMessage> {
@@ -315,10 +317,11 @@ impl<'w> Autopilot<'w> {
                 vec![MavMessage::TIMESYNC(TIMESYNC_DATA {
                     tc1: now_ns,
                     ts1: ts.ts1,
-                    ..Default::default()
+                    target_system: from.0,
+                    target_component: from.1,
                 })]
             }
-            MavMessage::COMMAND_LONG(cmd) => self.command(cmd, now_s, scheduler),
+            MavMessage::COMMAND_LONG(cmd) => self.command(cmd, from, now_s, scheduler),
             _ => Vec::new(),
         }
     }
@@ -326,6 +329,7 @@ impl<'w> Autopilot<'w> {
     fn command(
         &self,
         cmd: &COMMAND_LONG_DATA,
+        from: (u8, u8),
         now_s: f64,
         scheduler: &mut Scheduler,
     ) -> Vec<MavMessage> {
@@ -337,6 +341,8 @@ impl<'w> Autopilot<'w> {
             MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
                 command: cmd.command,
                 result,
+                target_system: from.0,
+                target_component: from.1,
                 ..Default::default()
             })
         };
@@ -463,6 +469,7 @@ mod tests {
                 ts1: 42,
                 ..Default::default()
             }),
+            (255, 190),
             1.0,
             &mut sch,
         );
@@ -476,7 +483,7 @@ mod tests {
             param1: 242.0,
             ..Default::default()
         });
-        let r = ap.handle(&req, 1.0, &mut sch);
+        let r = ap.handle(&req, (255, 190), 1.0, &mut sch);
         assert_eq!(r.len(), 2);
         assert!(
             matches!(&r[0], MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)

@@ -3,7 +3,7 @@
 
 use crate::motion::DroneState;
 use crate::objects::ObjectState;
-use crate::scenario::{ObjectClass, Scenario};
+use crate::scenario::Scenario;
 use crate::world::World;
 use mgmot::geo::attitude::camera_from_heading_pitch_deg;
 use mgmot::geo::{CameraModel, CameraPose, GeoError, Geodetic, LocalTangentFrame, SeaPlane};
@@ -171,14 +171,10 @@ pub fn frame_truth(world: &World, optics: &Optics, index: u64) -> FrameTruth {
     }
 }
 
-/// MOTChallenge class number of a class (its SeaDronesSee category id).
-pub fn mot_class(class: ObjectClass) -> u32 {
-    class.category_id()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scenario::ObjectClass;
 
     #[test]
     fn world_position_projects_to_box_centre() {
@@ -224,5 +220,30 @@ mod tests {
             }
         }
         assert!(n > 10, "{n}");
+    }
+
+    #[test]
+    fn leave_and_return_targets_come_back_after_5_to_60_s() {
+        let s = Scenario::load("leave_and_return").unwrap();
+        let optics = Optics::new(&s).unwrap();
+        let world = World::new(s, 4);
+        let n = world.scenario.frame_count();
+        let mut seen: std::collections::HashMap<u32, Vec<u64>> = Default::default();
+        for index in 0..n {
+            for b in frame_truth(&world, &optics, index).boxes {
+                seen.entry(b.object.id).or_default().push(index);
+            }
+        }
+        let mut returns = 0;
+        for frames in seen.values() {
+            for w in frames.windows(2) {
+                let gap_s = (w[1] - w[0]) as f64 / world.scenario.camera.fps;
+                if gap_s > 1.0 {
+                    assert!((5.0..=60.0).contains(&gap_s), "gap {gap_s} s");
+                    returns += 1;
+                }
+            }
+        }
+        assert!(returns >= 10, "{returns}");
     }
 }

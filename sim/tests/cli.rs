@@ -322,3 +322,21 @@ fn renders_png_and_jpg_images() {
         assert!(out.join("seqinfo.ini").exists());
     }
 }
+
+#[test]
+fn missing_v4l2_device_is_a_clear_error() {
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "v4l2:/dev/video-does-not-exist",
+    ]);
+    if cfg!(feature = "v4l2") {
+        assert_clean_failure(&o, "no V4L2 device /dev/video-does-not-exist");
+    } else {
+        assert_clean_failure(&o, "`v4l2` cargo feature");
+    }
+}

@@ -41,6 +41,8 @@ impl SimClock {
 /// The run loop's end of the link.
 pub struct Link {
     tx: SyncSender<MavMessage>,
+    /// Lockstep: wait for the link instead of dropping when it falls behind.
+    blocking: bool,
     /// Messages dropped because the link was not keeping up or not connected.
     pub dropped: Arc<AtomicU64>,
     /// Messages handed to the transport.
@@ -55,6 +57,7 @@ impl Link {
         world: Arc<World>,
         scheduler: Arc<Mutex<Scheduler>>,
         clock: Arc<SimClock>,
+        blocking: bool,
     ) -> anyhow::Result<Link> {
         // Reject malformed addresses at once instead of retrying forever.
         let proto = address.split(':').next().unwrap_or("");
@@ -73,11 +76,24 @@ impl Link {
         std::thread::Builder::new()
             .name("mavlink-link".into())
             .spawn(move || link_thread(address, world, scheduler, clock, rx, sent2))?;
-        Ok(Link { tx, dropped, sent })
+        Ok(Link {
+            tx,
+            blocking,
+            dropped,
+            sent,
+        })
     }
 
-    /// Queues a message; drops it (counted) when the queue is full.
+    /// Queues a message. In real time a full queue drops it (counted); in lockstep it
+    /// waits for the link (a link that cannot open discards while it retries, so this never
+    /// waits for more than about a second).
     pub fn send(&self, msg: MavMessage) {
+        if self.blocking {
+            if self.tx.send(msg).is_err() {
+                self.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+            return;
+        }
         match self.tx.try_send(msg) {
             Ok(()) => {}
             Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
@@ -196,9 +212,12 @@ fn receive_loop(
     };
     while !broken.load(Ordering::Relaxed) {
         match conn.recv() {
-            Ok((_, msg)) => {
+            Ok((from, msg)) => {
+                // System ids above 255 exist only in MAVLink 2 extensions of the header; the
+                // reply targets are u8 fields.
+                let sender = (u8::try_from(from.system_id).unwrap_or(0), from.component_id);
                 let replies = match scheduler.lock() {
-                    Ok(mut s) => autopilot.handle(&msg, clock.get(), &mut s),
+                    Ok(mut s) => autopilot.handle(&msg, sender, clock.get(), &mut s),
                     Err(_) => return,
                 };
                 for r in replies {

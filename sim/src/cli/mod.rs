@@ -2,6 +2,8 @@
 
 mod detections;
 mod frames;
+#[cfg(feature = "v4l2")]
+mod frames_v4l2;
 mod link;
 mod list;
 mod render;

@@ -59,6 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             world.clone(),
             scheduler.clone(),
             clock.clone(),
+            args.lockstep,
         )?),
         None => None,
     };
