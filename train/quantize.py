@@ -1,8 +1,11 @@
 """Static int8 quantisation (QDQ) of an fp32 TinyDet / YOLOv8 ONNX model.
 
 Calibration: letterboxed frames from the training split (MinMax, per-channel
-int8 weights, uint8 activations). Only convolutions are quantised: the box
-decoding and sigmoid at the end stay in float so boxes keep full precision.
+int8 weights, uint8 activations). Everything up to the heads' last
+convolutions is quantised (Conv + ReLU fuse into one int8 convolution, Add,
+Concat, Resize, ...); the box decoding after the heads (Softplus / Sigmoid and
+the arithmetic that turns distances into boxes) stays float, so box
+coordinates keep full precision.
 
 Usage: python quantize.py --fp32 model.onnx --out model-int8.onnx --source sim --data DIR
 """
@@ -46,6 +49,24 @@ def calibration_frames(args):
             yield data.procedural_frame(seed)[0]
 
 
+def decode_nodes(model: onnx.ModelProto) -> list[str]:
+    """Names of the nodes from the first Softplus / Sigmoid onwards (the box decoding)."""
+    consumers: dict[str, list] = {}
+    for n in model.graph.node:
+        for i in n.input:
+            consumers.setdefault(i, []).append(n)
+    todo = [n for n in model.graph.node if n.op_type in ("Softplus", "Sigmoid")]
+    seen: set[str] = set()
+    while todo:
+        n = todo.pop()
+        if n.name in seen:
+            continue
+        seen.add(n.name)
+        for o in n.output:
+            todo.extend(consumers.get(o, []))
+    return sorted(seen)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--fp32", required=True)
@@ -61,12 +82,13 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         pre = str(Path(tmp) / "pre.onnx")
         quant_pre_process(args.fp32, pre)
+        exclude = decode_nodes(onnx.load(pre))
         quantize_static(
             pre,
             args.out,
             FrameReader(calibration_frames(args), size, inp.name),
             quant_format=QuantFormat.QDQ,
-            op_types_to_quantize=["Conv"],
+            nodes_to_exclude=exclude,
             per_channel=True,
             weight_type=QuantType.QInt8,
             activation_type=QuantType.QUInt8,
