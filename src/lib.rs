@@ -10,4 +10,5 @@
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 #![warn(missing_docs)]
 
+pub mod detect;
 pub mod geo;

@@ -1,6 +1,8 @@
 //! Subcommands of the `mgmot` binary. Each one lives in its own file and exposes
 //! an `Args` struct (clap) and a `run(args) -> anyhow::Result<()>` function.
 
+mod detect;
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -17,6 +19,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Detect swimmers and boats in images with an ONNX model.
+    Detect(detect::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -24,6 +28,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
     let result: anyhow::Result<()> = match cli.command {
+        Command::Detect(args) => detect::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
