@@ -11,4 +11,8 @@
 #![warn(missing_docs)]
 
 pub mod detect;
+pub mod eval;
+pub mod formats;
 pub mod geo;
+pub mod logging;
+pub mod track;

@@ -1,10 +1,13 @@
 //! Subcommands of the `mgmot` binary. Each one lives in its own file and exposes
 //! an `Args` struct (clap) and a `run(args) -> anyhow::Result<()>` function.
 
-mod detect;
-
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+
+mod detect;
+mod eval;
+mod geolocate;
+mod track;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
 #[derive(Debug, Parser)]
@@ -19,6 +22,12 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Geolocate boxes (ground truth or detections) on the sea surface.
+    Geolocate(geolocate::Args),
+    /// Evaluate tracking results against ground truth (HOTA, CLEAR, Identity).
+    Eval(eval::Args),
+    /// Track the videos of a SeaDronesSee file and geolocate the tracks.
+    Track(track::Args),
     /// Detect swimmers and boats in images with an ONNX model.
     Detect(detect::Args),
 }
@@ -26,8 +35,11 @@ enum Command {
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logging(cli.verbose);
+    mgmot::logging::init(tracing::Level::WARN, cli.verbose);
     let result: anyhow::Result<()> = match cli.command {
+        Command::Geolocate(args) => geolocate::run(args),
+        Command::Eval(args) => eval::run(args),
+        Command::Track(args) => track::run(args),
         Command::Detect(args) => detect::run(args),
     };
     match result {
@@ -37,20 +49,4 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn init_logging(verbose: u8) {
-    let default = match verbose {
-        0 => "warn",
-        1 => "info",
-        2 => "debug",
-        _ => "trace",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    // Logs go to stderr so that `--json` output on stdout stays machine-readable.
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
 }

@@ -1,0 +1,243 @@
+//! Online tracker step: 30 live tracks and 40 detections per frame (30 objects plus 10
+//! low-confidence clutter detections), camera-motion compensation on, world observations
+//! on. Two cases: a steady-state frame, and a frame in which 5 new tracks reach `w` frames
+//! and are matched against a memory bank of 10 lost tracks (online ReID decision).
+//! Target (issue 2): median <= 50 us per frame on one core.
+//!
+//! Each case is measured twice: wall-clock time (criterion's default) and the CPU time of the
+//! benchmark thread (`*_cpu`), which is what "on one core" means when the machine is shared
+//! and the wall clock includes time spent waiting for a core.
+
+use std::time::Duration;
+
+use cpu_time::ThreadTime;
+use criterion::measurement::{Measurement, ValueFormatter};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use mgmot::track::{
+    BBox, Detection, FrameInput, TrackState, Tracker, TrackerParams, WorldObservation,
+};
+use nalgebra::{Matrix2, Matrix3, Vector2};
+
+const FPS: f64 = 30.0;
+const PX_PER_M: f64 = 10.0;
+const IMAGE: (u32, u32) = (3840, 2160);
+
+/// Deterministic pseudo-random numbers in [0, 1) (a 64-bit LCG; no dependency needed).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+struct Obj {
+    pos: Vector2<f64>,
+    vel: Vector2<f64>,
+    frames: std::ops::Range<u64>,
+    class_id: u32,
+}
+
+/// 25 persistent objects, 10 that vanish at frame 100 (memory bank), 5 that appear at
+/// frame 170 (decided at frame 200), 10 clutter detections per frame.
+fn scene(n_frames: u64) -> Vec<FrameInput> {
+    let mut rng = Lcg(42);
+    let mut objs = Vec::new();
+    let mut add = |rng: &mut Lcg, frames: std::ops::Range<u64>| {
+        objs.push(Obj {
+            pos: Vector2::new(rng.next() * 150.0 - 75.0, rng.next() * 300.0 - 150.0),
+            vel: Vector2::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0),
+            frames,
+            class_id: 1 + (rng.next() * 2.0) as u32,
+        });
+    };
+    for _ in 0..25 {
+        add(&mut rng, 0..u64::MAX);
+    }
+    for _ in 0..10 {
+        add(&mut rng, 0..100);
+    }
+    for _ in 0..5 {
+        add(&mut rng, 170..u64::MAX);
+    }
+    let (cx, cy) = (f64::from(IMAGE.0) / 2.0, f64::from(IMAGE.1) / 2.0);
+    (0..n_frames)
+        .map(|f| {
+            let t = f as f64 / FPS;
+            // camera drifting 1 m/s east
+            let cam_e = t;
+            let mut detections = Vec::new();
+            for o in objs.iter().filter(|o| o.frames.contains(&f)) {
+                let p = o.pos + o.vel * t;
+                let noise = Vector2::new(rng.next() - 0.5, rng.next() - 0.5) * 0.3;
+                let (u, v) = (cx + PX_PER_M * (p.y - cam_e), cy - PX_PER_M * p.x);
+                detections.push(Detection {
+                    bbox: BBox::from_center(u + rng.next(), v + rng.next(), 24.0, 24.0),
+                    score: 0.6 + 0.4 * rng.next() as f32,
+                    class_id: o.class_id,
+                    world: Some(WorldObservation {
+                        pos_ne_m: p + noise,
+                        cov_ne_m2: Matrix2::identity() * 0.25,
+                    }),
+                });
+            }
+            for _ in 0..10 {
+                detections.push(Detection {
+                    bbox: BBox::new(
+                        rng.next() * 3700.0,
+                        rng.next() * 2000.0,
+                        10.0 + 20.0 * rng.next(),
+                        10.0 + 20.0 * rng.next(),
+                    ),
+                    score: 0.15 + 0.3 * rng.next() as f32,
+                    class_id: 1,
+                    world: None,
+                });
+            }
+            FrameInput {
+                frame_index: f,
+                time_s: t,
+                image_size_px: IMAGE,
+                detections,
+                image_motion: Some(Matrix3::new(
+                    1.0,
+                    0.0,
+                    -PX_PER_M / FPS,
+                    0.0,
+                    1.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    1.0,
+                )),
+            }
+        })
+        .collect()
+}
+
+/// Criterion measurement: CPU time consumed by the measuring thread.
+struct ThreadCpuTime;
+
+/// Formats nanoseconds like criterion's wall-time formatter.
+struct NanosFormatter;
+
+impl ValueFormatter for NanosFormatter {
+    fn scale_values(&self, typical_ns: f64, values: &mut [f64]) -> &'static str {
+        let (factor, unit) = if typical_ns < 1e3 {
+            (1.0, "ns")
+        } else if typical_ns < 1e6 {
+            (1e-3, "µs")
+        } else {
+            (1e-6, "ms")
+        };
+        values.iter_mut().for_each(|v| *v *= factor);
+        unit
+    }
+
+    fn scale_throughputs(&self, _: f64, _: &Throughput, values: &mut [f64]) -> &'static str {
+        values.iter_mut().for_each(|v| *v = 1e9 / *v);
+        "iter/s"
+    }
+
+    fn scale_for_machines(&self, _: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
+
+impl Measurement for ThreadCpuTime {
+    type Intermediate = ThreadTime;
+    type Value = Duration;
+
+    fn start(&self) -> ThreadTime {
+        ThreadTime::now()
+    }
+    fn end(&self, start: ThreadTime) -> Duration {
+        start.elapsed()
+    }
+    fn add(&self, a: &Duration, b: &Duration) -> Duration {
+        *a + *b
+    }
+    fn zero(&self) -> Duration {
+        Duration::ZERO
+    }
+    fn to_f64(&self, d: &Duration) -> f64 {
+        d.as_nanos() as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &NanosFormatter
+    }
+}
+
+/// The two tracker states to step from: (at the ReID decision frame, steady) and the frames.
+fn prepared() -> (Tracker, Tracker, Vec<FrameInput>) {
+    let frames = scene(260);
+    let mut tracker = Tracker::new(TrackerParams::default()).expect("default params");
+    // Warm up to frame 199: frame 200 is the ReID decision frame, 250 a steady one.
+    for f in &frames[..200] {
+        tracker.step(f).expect("ordered frames");
+    }
+    let at_reid = tracker.clone();
+    for f in &frames[200..250] {
+        tracker.step(f).expect("ordered frames");
+    }
+    let steady = tracker;
+    assert_eq!(frames[250].detections.len(), 40);
+    assert_eq!(
+        steady
+            .live_tracks()
+            .filter(|t| t.state == TrackState::Confirmed)
+            .count(),
+        30
+    );
+    (at_reid, steady, frames)
+}
+
+fn bench_step(c: &mut Criterion) {
+    let (at_reid, steady, frames) = prepared();
+    c.bench_function("tracker_step_30_tracks_40_dets", |b| {
+        b.iter_batched_ref(
+            || steady.clone(),
+            |t| t.step(&frames[250]),
+            BatchSize::SmallInput,
+        )
+    });
+    c.bench_function("tracker_step_30_tracks_40_dets_with_reid_decision", |b| {
+        b.iter_batched_ref(
+            || at_reid.clone(),
+            |t| t.step(&frames[200]),
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+fn bench_step_cpu(c: &mut Criterion<ThreadCpuTime>) {
+    let (at_reid, steady, frames) = prepared();
+    c.bench_function("tracker_step_30_tracks_40_dets_cpu", |b| {
+        b.iter_batched_ref(
+            || steady.clone(),
+            |t| t.step(&frames[250]),
+            BatchSize::SmallInput,
+        )
+    });
+    c.bench_function(
+        "tracker_step_30_tracks_40_dets_with_reid_decision_cpu",
+        |b| {
+            b.iter_batched_ref(
+                || at_reid.clone(),
+                |t| t.step(&frames[200]),
+                BatchSize::SmallInput,
+            )
+        },
+    );
+}
+
+criterion_group!(benches, bench_step);
+criterion_group! {
+    name = benches_cpu;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = bench_step_cpu
+}
+criterion_main!(benches, benches_cpu);

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs what building and testing mgmot needs on a Debian machine, or stops with a clear
+# message. Safe to run repeatedly. Sourced by demo.sh and test.sh.
+set -euo pipefail
+
+need_apt=()
+command -v cargo >/dev/null 2>&1 || {
+  echo "setup: cargo (Rust stable >= 1.85) is required: install it with rustup (https://rustup.rs) and re-run." >&2
+  exit 1
+}
+command -v cc >/dev/null 2>&1 || need_apt+=(build-essential)
+command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip python3-venv)
+command -v pkg-config >/dev/null 2>&1 || need_apt+=(pkg-config)
+# bindgen (used by the v4l crate) needs libclang.
+ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1 || ls /usr/lib/x86_64-linux-gnu/libclang*.so* >/dev/null 2>&1 || need_apt+=(libclang-dev)
+
+if [ ${#need_apt[@]} -gt 0 ]; then
+  echo "setup: installing Debian packages: ${need_apt[*]}"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  if ! command -v apt-get >/dev/null 2>&1; then
+    echo "setup: apt-get not found; please install: ${need_apt[*]}" >&2
+    exit 1
+  fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
+fi

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The test command: installs what the tests need, then runs formatting and lint checks and the
+# whole test suite (unit, property, integration over real sockets, real-data fixtures).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+
+if [ ! -d ../shared/data/seadronessee ]; then
+  echo "test: ../shared/data/seadronessee is missing: clone the repo next to the shared/ folder." >&2
+  exit 1
+fi
+
+# Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv.
+if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink" 2>/dev/null; then
+  echo "== python venv for the cross-checks (.venv)"
+  if ! python3 -m venv .venv 2>/dev/null; then
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq python3-venv >/dev/null
+    python3 -m venv .venv
+  fi
+  .venv/bin/python3 -m pip install -q --disable-pip-version-check -r scripts/requirements-test.txt
+fi
+export PATH="$PWD/.venv/bin:$PATH"
+
+echo "== cargo fmt --check"
+cargo fmt --all --check
+echo "== cargo clippy"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== cargo test"
+cargo test --workspace

@@ -1,0 +1,479 @@
+//! `mgmot track`: track every video of a SeaDronesSee file from its detections, offline or as
+//! the onboard (online) tracker would, and write MOTChallenge results plus geolocated tracks.
+
+use anyhow::{bail, Context};
+use clap::{Args as ClapArgs, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use mgmot::eval::BoxXywh;
+use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
+use mgmot::formats::seadronessee::{self, Dataset, Sequence};
+use mgmot::formats::{coco, mot};
+use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, Pixel, PoseNoise};
+use mgmot::track::{
+    track_sequence, BBox, Detection, FrameInput, MergeEvent, SequenceTrack, Tracker, TrackerParams,
+    WorldObservation,
+};
+use nalgebra::Vector3;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Track each video of a SeaDronesSee file and geolocate the tracks.
+///
+/// Writes, per video, `<video>.txt` (MOTChallenge results: frame,id,x,y,w,h,conf,-1,-1),
+/// `<video>_tracks.csv` (or .geojson: one row per track per frame with lat/lon), and a
+/// `summary.json` with the counts and the online mode's merge events.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// SeaDronesSee JSON with the frames and their drone metadata.
+    #[arg(long)]
+    annotations: PathBuf,
+    /// Detections: COCO results JSON (.json) or MOTChallenge det.txt (.txt; frame numbers are
+    /// 1-based positions in the video, which must then be the only one or chosen by --video).
+    #[arg(long)]
+    detections: PathBuf,
+    /// online: frame by frame as in the air (ReID links a new track after w frames and reports
+    /// a merge); offline: the paper's post-processing over the whole video.
+    #[arg(long, value_enum, default_value_t = Mode::Online)]
+    mode: Mode,
+    /// Ignore the drone metadata: the plain BoT-SORT baseline, no geolocation or ReID.
+    #[arg(long)]
+    no_metadata: bool,
+    /// Only this video.
+    #[arg(long)]
+    video: Option<String>,
+    /// Tracker parameters (TOML, the keys of `TrackerParams`); defaults are the paper's.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Horizontal field of view of the camera (deg).
+    #[arg(long, default_value_t = 70.0)]
+    fov_deg: f64,
+    /// How long the metadata lags the video (s): each metadata record describes the moment this
+    /// long before the frame it comes with; the pose is interpolated between records.
+    /// SeaDronesSee's DJI logs lag by about 1 s; simulator output has no lag.
+    #[arg(long, default_value_t = 0.0)]
+    metadata_lag_s: f64,
+    /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`.
+    #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS)]
+    fps: f64,
+    /// Write each track's class id in column 8 of the MOTChallenge results (for
+    /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
+    /// convention that TrackEval's MOT loader requires.
+    #[arg(long)]
+    class_column: bool,
+    /// Geo track file format.
+    #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
+    geo_format: GeoOut,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Tracking mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+enum Mode {
+    Online,
+    Offline,
+}
+
+/// Geo track file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum GeoOut {
+    Csv,
+    Geojson,
+}
+
+/// One track in one frame, geolocated.
+#[derive(Debug, Serialize)]
+struct TrackRow {
+    frame: u64,
+    time_s: f64,
+    track_id: u64,
+    class_id: u32,
+    score: f32,
+    lat_deg: f64,
+    lon_deg: f64,
+    north_m: f64,
+    east_m: f64,
+    vel_north_mps: f64,
+    vel_east_mps: f64,
+    h_std_m: f64,
+    interpolated: bool,
+}
+
+impl GeoRow for TrackRow {
+    fn lat_deg(&self) -> f64 {
+        self.lat_deg
+    }
+    fn lon_deg(&self) -> f64 {
+        self.lon_deg
+    }
+}
+
+/// Per-video outcome.
+#[derive(Debug, Serialize)]
+struct VideoSummary {
+    video: String,
+    frames: usize,
+    detections: usize,
+    detections_geolocated: usize,
+    tracks: usize,
+    track_boxes: usize,
+    mot_results: PathBuf,
+    geo_tracks: PathBuf,
+    merges: Vec<MergeEvent>,
+}
+
+/// Detections of one image: (category, bbox, score).
+type Dets = Vec<(u32, [f64; 4], f64)>;
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let params = match &args.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let p: TrackerParams = toml::from_str(&text)
+                .with_context(|| format!("{}: invalid tracker parameters", path.display()))?;
+            p
+        }
+        None => TrackerParams::default(),
+    };
+    params.validate().context("tracker parameters")?;
+    let ds = seadronessee::read_dataset(&args.annotations)?;
+    let mut sequences = ds.sequences(args.fps);
+    if let Some(name) = &args.video {
+        sequences.retain(|s| &s.name == name);
+        if sequences.is_empty() {
+            bail!("no video named {name:?} in {}", args.annotations.display());
+        }
+    }
+    let dets_by_image = load_detections(&args, &ds, &sequences)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+
+    let total_frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
+    let progress = if args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total_frames as u64)
+    };
+    progress.set_style(
+        ProgressStyle::with_template(
+            "{msg:>24} [{bar:40}] {pos}/{len} frames ({per_sec}, eta {eta})",
+        )
+        .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
+        .progress_chars("=> "),
+    );
+
+    let mut summaries = Vec::new();
+    for seq in &sequences {
+        progress.set_message(seq.name.clone());
+        summaries.push(track_video(
+            &args,
+            &params,
+            &ds,
+            seq,
+            &dets_by_image,
+            &progress,
+        )?);
+    }
+    progress.finish_and_clear();
+
+    let summary = serde_json::json!({ "mode": args.mode, "metadata": !args.no_metadata, "videos": summaries });
+    let summary_path = args.out.join("summary.json");
+    std::fs::write(
+        &summary_path,
+        serde_json::to_string_pretty(&summary)? + "\n",
+    )
+    .with_context(|| format!("writing {}", summary_path.display()))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        for s in &summaries {
+            println!(
+                "{}: {} frames, {} detections ({} geolocated), {} tracks, {} merges -> {}, {}",
+                s.video,
+                s.frames,
+                s.detections,
+                s.detections_geolocated,
+                s.tracks,
+                s.merges.len(),
+                s.mot_results.display(),
+                s.geo_tracks.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Detections grouped by image id.
+fn load_detections(
+    args: &Args,
+    ds: &Dataset,
+    sequences: &[Sequence],
+) -> anyhow::Result<HashMap<u64, Dets>> {
+    let mut by_image: HashMap<u64, Dets> = HashMap::new();
+    let is_txt = args
+        .detections
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    if is_txt {
+        let [seq] = sequences else {
+            bail!(
+                "{}: a MOT detection file covers one video, but {} has {}; choose one with --video",
+                args.detections.display(),
+                args.annotations.display(),
+                sequences.len()
+            );
+        };
+        let rows = mot::read_detections(&args.detections)?;
+        for r in rows {
+            let Some(frame) = usize::try_from(r.frame)
+                .ok()
+                .and_then(|f| f.checked_sub(1))
+                .and_then(|i| seq.frames.get(i))
+            else {
+                bail!(
+                    "{}: frame {} is outside video {} (1..={})",
+                    args.detections.display(),
+                    r.frame,
+                    seq.name,
+                    seq.frames.len()
+                );
+            };
+            let class_id = u32::try_from(r.class).unwrap_or(0);
+            by_image.entry(frame.image_id).or_default().push((
+                class_id,
+                [r.bbox.x, r.bbox.y, r.bbox.w, r.bbox.h],
+                r.conf,
+            ));
+        }
+    } else {
+        let known: std::collections::HashSet<u64> = ds.images.iter().map(|i| i.id).collect();
+        let mut unknown = 0usize;
+        for d in coco::read_detections(&args.detections)? {
+            if !known.contains(&d.image_id) {
+                unknown += 1;
+                continue;
+            }
+            by_image
+                .entry(d.image_id)
+                .or_default()
+                .push((d.category_id, d.bbox, d.score));
+        }
+        if unknown > 0 {
+            tracing::warn!(
+                unknown,
+                "detections for images not in the annotations file were ignored"
+            );
+        }
+    }
+    Ok(by_image)
+}
+
+/// Geolocates a box's centre into a world observation (None when it misses the sea).
+fn observe(frame: &FrameGeometry<'_>, bbox: &[f64; 4]) -> Option<WorldObservation> {
+    let g = frame
+        .locate(Pixel::new(bbox[0] + bbox[2] / 2.0, bbox[1] + bbox[3] / 2.0))
+        .ok()?;
+    Some(WorldObservation {
+        pos_ne_m: g.ned_m.xy(),
+        cov_ne_m2: g.cov_ne_m2,
+    })
+}
+
+fn track_video(
+    args: &Args,
+    params: &TrackerParams,
+    ds: &Dataset,
+    seq: &Sequence,
+    dets_by_image: &HashMap<u64, Dets>,
+    progress: &ProgressBar,
+) -> anyhow::Result<VideoSummary> {
+    let Some(first) = seq.frames.first() else {
+        bail!("video {} has no frames", seq.name);
+    };
+    let first_image = &ds.images[first.image_index];
+    let camera = CameraModel::from_hfov(first_image.width, first_image.height, args.fov_deg)
+        .with_context(|| format!("video {}: camera model", seq.name))?;
+    if let Some(image) = seq
+        .frames
+        .iter()
+        .map(|f| &ds.images[f.image_index])
+        .find(|im| (im.width, im.height) != (first_image.width, first_image.height))
+    {
+        bail!(
+            "video {}: image {} is {}x{}, unlike the video's first frame",
+            seq.name,
+            image.id,
+            image.width,
+            image.height
+        );
+    }
+    let metas = if args.no_metadata {
+        vec![None; seq.frames.len()]
+    } else {
+        ds.frame_metadata(seq, args.metadata_lag_s)
+            .with_context(|| format!("video {}: metadata", seq.name))?
+    };
+    let reference = metas.iter().flatten().next().map(|m| m.nadir_on_water());
+    let geolocator = reference.map(|r| Geolocator::new(r, camera, PoseNoise::default()));
+
+    // Build the tracker's input: boxes, world observations and metadata motion compensation.
+    let mut inputs = Vec::with_capacity(seq.frames.len());
+    let mut geolocated = 0usize;
+    let mut n_dets = 0usize;
+    let mut previous: Option<FrameGeometry<'_>> = None;
+    for (f, meta) in seq.frames.iter().zip(&metas) {
+        let image = &ds.images[f.image_index];
+        let geometry = match (&geolocator, meta) {
+            (Some(g), Some(m)) => g.frame(m).ok(),
+            _ => None,
+        };
+        let detections: Vec<Detection> = dets_by_image
+            .get(&f.image_id)
+            .map(|dets| {
+                dets.iter()
+                    .map(|(class_id, b, score)| Detection {
+                        bbox: BBox::new(b[0], b[1], b[2], b[3]),
+                        score: *score as f32,
+                        class_id: *class_id,
+                        world: geometry.as_ref().and_then(|g| observe(g, b)),
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        n_dets += detections.len();
+        geolocated += detections.iter().filter(|d| d.world.is_some()).count();
+        let image_motion = match (&previous, &geometry) {
+            (Some(p), Some(c)) => p.image_motion_to(c).ok(),
+            _ => None,
+        };
+        inputs.push(FrameInput {
+            frame_index: f.video_frame,
+            time_s: f.time_s,
+            image_size_px: (image.width, image.height),
+            detections,
+            image_motion,
+        });
+        previous = geometry;
+    }
+
+    // Every reported track box of either mode, with the position of its frame in the video.
+    let mut tracked: Vec<(usize, SequenceTrack)> = Vec::new();
+    let mut merges = Vec::new();
+    match args.mode {
+        Mode::Online => {
+            let mut tracker = Tracker::new(params.clone())?;
+            for (pos, input) in inputs.iter().enumerate() {
+                let out = tracker.step(input)?;
+                tracked.extend(out.tracks.iter().map(|t| {
+                    let st = SequenceTrack {
+                        id: t.id,
+                        bbox: t.bbox,
+                        score: t.score,
+                        class_id: t.class_id,
+                        world: t.world,
+                        interpolated: false,
+                    };
+                    (pos, st)
+                }));
+                merges.extend(out.merges);
+                progress.inc(1);
+            }
+            merges.extend(tracker.finish());
+        }
+        Mode::Offline => {
+            let result = track_sequence(&inputs, params)?;
+            for (pos, frame) in result.frames.iter().enumerate() {
+                tracked.extend(frame.tracks.iter().map(|t| (pos, *t)));
+            }
+            progress.inc(inputs.len() as u64);
+        }
+    }
+
+    let reference = geolocator.as_ref().map(|g| g.reference());
+    let mut mot_rows = Vec::with_capacity(tracked.len());
+    let mut geo_rows = Vec::with_capacity(tracked.len());
+    for (pos, t) in &tracked {
+        let f = &seq.frames[*pos];
+        mot_rows.push(mot_result(
+            f.frame_number,
+            t.id,
+            &t.bbox,
+            t.score,
+            args.class_column.then_some(t.class_id),
+        ));
+        if let (Some(world), Some(reference)) = (&t.world, reference) {
+            let geodetic =
+                reference.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
+            geo_rows.push(TrackRow {
+                frame: f.frame_number,
+                time_s: f.time_s,
+                track_id: t.id,
+                class_id: t.class_id,
+                score: t.score,
+                lat_deg: geodetic.lat_deg,
+                lon_deg: geodetic.lon_deg,
+                north_m: world.pos_ne_m.x,
+                east_m: world.pos_ne_m.y,
+                vel_north_mps: world.vel_ne_m_s.x,
+                vel_east_mps: world.vel_ne_m_s.y,
+                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
+                interpolated: t.interpolated,
+            });
+        }
+    }
+
+    let mot_path = args.out.join(format!("{}.txt", seq.name));
+    let file = std::fs::File::create(&mot_path)
+        .with_context(|| format!("creating {}", mot_path.display()))?;
+    let mut writer = std::io::BufWriter::new(file);
+    mot::write(&mut writer, &mot_rows)
+        .and_then(|()| writer.flush())
+        .with_context(|| format!("writing {}", mot_path.display()))?;
+    let ext = match args.geo_format {
+        GeoOut::Csv => "csv",
+        GeoOut::Geojson => "geojson",
+    };
+    let geo_path = args.out.join(format!("{}_tracks.{ext}", seq.name));
+    write_geo_rows(&geo_path, &geo_rows)?;
+    let mut ids: Vec<i64> = mot_rows.iter().map(|r| r.id).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    Ok(VideoSummary {
+        video: seq.name.clone(),
+        frames: inputs.len(),
+        detections: n_dets,
+        detections_geolocated: geolocated,
+        tracks: ids.len(),
+        track_boxes: mot_rows.len(),
+        mot_results: mot_path,
+        geo_tracks: geo_path,
+        merges,
+    })
+}
+
+/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1` (class -1 when `class_id` is
+/// `None`).
+fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: Option<u32>) -> mot::MotRecord {
+    mot::MotRecord {
+        frame,
+        id: i64::try_from(id).unwrap_or(i64::MAX),
+        bbox: BoxXywh {
+            x: b.x,
+            y: b.y,
+            w: b.w,
+            h: b.h,
+        },
+        conf: f64::from(score),
+        class: class_id.map_or(-1, i64::from),
+        visibility: None,
+    }
+}

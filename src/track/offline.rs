@@ -1,0 +1,345 @@
+//! Offline mode: the baseline over a whole sequence, then the paper's post-processing
+//! (Sec. 5.1): linear interpolation -> metadata-guided ReID -> linear interpolation.
+
+use std::collections::BTreeMap;
+
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+use super::bbox::BBox;
+use super::online::{add_vote, majority_class, Tracker};
+use super::params::TrackerParams;
+use super::reid::{associate_exits_to_entries_where, window_velocity, TrackEnd};
+use super::types::FrameInput;
+use super::world::WorldState;
+use super::TrackError;
+
+/// One track box in one frame of the offline result.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SequenceTrack {
+    /// Final track id (after ReID).
+    pub id: u64,
+    /// Box, px.
+    pub bbox: BBox,
+    /// Confidence (interpolated between the neighbouring observations for filled frames).
+    pub score: f32,
+    /// Majority class over the whole final track.
+    pub class_id: u32,
+    /// World state, when the track has world observations (interpolated for filled frames).
+    pub world: Option<WorldState>,
+    /// Filled in by interpolation rather than tracked.
+    pub interpolated: bool,
+}
+
+/// All tracks of one input frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SequenceFrame {
+    /// Frame number of the input.
+    pub frame_index: u64,
+    /// Capture time of the input, s.
+    pub time_s: f64,
+    /// Tracks in this frame, ordered by id; an id appears at most once.
+    pub tracks: Vec<SequenceTrack>,
+}
+
+/// Result of [`track_sequence`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SequenceResult {
+    /// One entry per input frame, in input order.
+    pub frames: Vec<SequenceFrame>,
+    /// ReID links as `(baseline track id, final id)`, for every baseline track that was
+    /// re-labelled.
+    pub relabelled: Vec<(u64, u64)>,
+}
+
+/// One observation (or interpolated point) of a tracklet.
+#[derive(Debug, Clone, Copy)]
+struct Point {
+    /// Position of the frame in the input slice.
+    pos: usize,
+    bbox: BBox,
+    score: f32,
+    /// Class of the matched detection (`None` for interpolated points).
+    class_id: Option<u32>,
+    /// Filtered world state.
+    world: Option<WorldState>,
+    /// Raw world observation (the paper's X^3D), interpolated for filled points.
+    obs_ne_m: Option<Vector2<f64>>,
+    interpolated: bool,
+}
+
+/// Runs the tracker over a whole sequence and applies the paper's post-processing:
+///
+/// 1. the BoT-SORT baseline (online tracker with ReID disabled);
+/// 2. linear interpolation of gaps of at most `offline.interp_max_gap_frames` frames inside
+///    each baseline tracklet;
+/// 3. metadata-guided ReID between all tracklets of the sequence (short-term then long-term,
+///    class-wise; every tracklet has at most one predecessor and one successor, so linked
+///    tracklets form chains that never overlap in time); a chain takes the id of its first
+///    tracklet;
+/// 4. linear interpolation again, now also across the gaps between linked tracklets.
+///
+/// Frames must be in increasing frame order (as for [`Tracker::step`]).
+pub fn track_sequence(
+    frames: &[FrameInput],
+    params: &TrackerParams,
+) -> Result<SequenceResult, TrackError> {
+    let mut baseline_params = params.clone();
+    baseline_params.reid.enabled = false;
+    let mut tracker = Tracker::new(baseline_params)?;
+
+    let mut tracklets: BTreeMap<u64, Vec<Point>> = BTreeMap::new();
+    for (pos, frame) in frames.iter().enumerate() {
+        let out = tracker.step(frame)?;
+        for t in &out.tracks {
+            let det = t.detection_index.and_then(|i| frame.detections.get(i));
+            tracklets.entry(t.id).or_default().push(Point {
+                pos,
+                bbox: t.bbox,
+                score: t.score,
+                class_id: Some(det.map_or(t.class_id, |d| d.class_id)),
+                world: t.world,
+                obs_ne_m: det
+                    .and_then(|d| d.world)
+                    .map(|w| w.pos_ne_m)
+                    .filter(|p| p.iter().all(|v| v.is_finite())),
+                interpolated: false,
+            });
+        }
+    }
+
+    let max_gap = params.offline.interp_max_gap_frames;
+    for points in tracklets.values_mut() {
+        interpolate(points, frames, max_gap);
+    }
+
+    let ids: Vec<u64> = tracklets.keys().copied().collect();
+    let mut final_id: BTreeMap<u64, u64> = ids.iter().map(|&id| (id, id)).collect();
+    let mut relabelled = Vec::new();
+    if params.reid.enabled {
+        let window = params.reid.window_frames as usize;
+        let mut exits = Vec::new();
+        let mut exit_ids = Vec::new();
+        // Frame-position span of every tracklet with world observations.
+        let mut spans = Vec::new();
+        let mut entries = Vec::new();
+        let mut entry_ids = Vec::new();
+        for (&id, points) in &tracklets {
+            let class_id = tracklet_class(points);
+            let observed: Vec<(f64, Vector2<f64>)> = points
+                .iter()
+                .filter_map(|p| p.obs_ne_m.map(|o| (frames[p.pos].time_s, o)))
+                .collect();
+            let (Some(&first), Some(&last)) = (observed.first(), observed.last()) else {
+                continue;
+            };
+            let last_point = points.iter().rev().find(|p| p.obs_ne_m.is_some());
+            let left_view = last_point.is_some_and(|p| {
+                p.bbox.touches_border(
+                    frames[p.pos].image_size_px,
+                    params.reid.exit_border_fraction,
+                )
+            });
+            let earlier = observed[observed.len().saturating_sub(window + 1)];
+            exits.push(TrackEnd {
+                class_id,
+                time_s: last.0,
+                pos_ne_m: last.1,
+                vel_ne_m_s: window_velocity(earlier, last),
+                left_view,
+            });
+            exit_ids.push(id);
+            let later = observed[window.min(observed.len() - 1)];
+            entries.push(TrackEnd {
+                class_id,
+                time_s: first.0,
+                pos_ne_m: first.1,
+                vel_ne_m_s: window_velocity(first, later),
+                left_view: false,
+            });
+            entry_ids.push(id);
+            spans.push((
+                points.first().map_or(0, |p| p.pos),
+                points.last().map_or(0, |p| p.pos),
+            ));
+        }
+        // Exits and entries share indices (one of each per tracklet): a link needs the
+        // entry's tracklet to start after the exit's tracklet ended.
+        let links = associate_exits_to_entries_where(&exits, &entries, &params.reid, |i, j| {
+            spans[j].0 > spans[i].1
+        });
+        let successor: BTreeMap<u64, u64> = links
+            .iter()
+            .map(|&(i, j)| (exit_ids[i], entry_ids[j]))
+            .collect();
+        let has_predecessor: std::collections::BTreeSet<u64> =
+            successor.values().copied().collect();
+        for &root in ids.iter().filter(|id| !has_predecessor.contains(id)) {
+            let mut cur = root;
+            // Chains are strictly increasing in time, so this walk ends; the bound guards it.
+            for _ in 0..ids.len() {
+                let Some(&next) = successor.get(&cur) else {
+                    break;
+                };
+                final_id.insert(next, root);
+                relabelled.push((next, root));
+                cur = next;
+            }
+        }
+        relabelled.sort_unstable();
+    }
+
+    // Merge tracklets under their final ids and interpolate again.
+    let mut tracks: BTreeMap<u64, Vec<Point>> = BTreeMap::new();
+    for (id, points) in tracklets {
+        let fid = final_id.get(&id).copied().unwrap_or(id);
+        tracks.entry(fid).or_default().extend(points);
+    }
+    let mut out_frames: Vec<SequenceFrame> = frames
+        .iter()
+        .map(|f| SequenceFrame {
+            frame_index: f.frame_index,
+            time_s: f.time_s,
+            tracks: Vec::new(),
+        })
+        .collect();
+    for (id, mut points) in tracks {
+        // Linked tracklets never overlap in frames (see the span test above), so positions
+        // are unique after sorting.
+        points.sort_by_key(|p| p.pos);
+        interpolate(&mut points, frames, max_gap);
+        let class_id = tracklet_class(&points);
+        for p in points {
+            out_frames[p.pos].tracks.push(SequenceTrack {
+                id,
+                bbox: p.bbox,
+                score: p.score,
+                class_id,
+                world: p.world,
+                interpolated: p.interpolated,
+            });
+        }
+    }
+    for f in &mut out_frames {
+        f.tracks.sort_by_key(|t| t.id);
+    }
+    Ok(SequenceResult {
+        frames: out_frames,
+        relabelled,
+    })
+}
+
+fn tracklet_class(points: &[Point]) -> u32 {
+    let mut votes = Vec::new();
+    for c in points.iter().filter_map(|p| p.class_id) {
+        add_vote(&mut votes, c);
+    }
+    majority_class(&votes)
+}
+
+/// Fills the frames between consecutive points of a track (sorted by frame position) by
+/// linear interpolation in frame number, when at most `max_gap_frames` frames are missing.
+fn interpolate(points: &mut Vec<Point>, frames: &[FrameInput], max_gap_frames: u64) {
+    let mut filled = Vec::new();
+    for pair in points.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        let (fa, fb) = (frames[a.pos].frame_index, frames[b.pos].frame_index);
+        let missing = fb.saturating_sub(fa).saturating_sub(1);
+        if b.pos <= a.pos + 1 || missing == 0 || missing > max_gap_frames {
+            continue;
+        }
+        for (pos, frame) in frames.iter().enumerate().take(b.pos).skip(a.pos + 1) {
+            let s = (frame.frame_index - fa) as f64 / (fb - fa) as f64;
+            filled.push(Point {
+                pos,
+                bbox: a.bbox.lerp(&b.bbox, s),
+                score: a.score + (b.score - a.score) * s as f32,
+                class_id: None,
+                world: match (a.world, b.world) {
+                    (Some(wa), Some(wb)) => Some(WorldState {
+                        pos_ne_m: wa.pos_ne_m.lerp(&wb.pos_ne_m, s),
+                        vel_ne_m_s: wa.vel_ne_m_s.lerp(&wb.vel_ne_m_s, s),
+                        cov: wa.cov + (wb.cov - wa.cov) * s,
+                    }),
+                    _ => None,
+                },
+                obs_ne_m: match (a.obs_ne_m, b.obs_ne_m) {
+                    (Some(oa), Some(ob)) => Some(oa.lerp(&ob, s)),
+                    _ => None,
+                },
+                interpolated: true,
+            });
+        }
+    }
+    if !filled.is_empty() {
+        points.extend(filled);
+        points.sort_by_key(|p| p.pos);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn frame(i: u64) -> FrameInput {
+        FrameInput {
+            frame_index: i,
+            time_s: i as f64 / 30.0,
+            image_size_px: (100, 100),
+            detections: vec![],
+            image_motion: None,
+        }
+    }
+
+    fn point(pos: usize, x: f64, obs: Option<f64>) -> Point {
+        Point {
+            pos,
+            bbox: BBox::new(x, 0.0, 10.0, 10.0),
+            score: 0.8,
+            class_id: Some(1),
+            world: None,
+            obs_ne_m: obs.map(|n| Vector2::new(n, 0.0)),
+            interpolated: false,
+        }
+    }
+
+    #[test]
+    fn interpolation_fills_short_gaps_in_frame_numbers() {
+        // frame 3 was dropped from the input: positions 0..=4 are frames 0, 1, 2, 4, 5
+        let frames: Vec<_> = [0, 1, 2, 4, 5].into_iter().map(frame).collect();
+        let mut pts = vec![point(0, 0.0, Some(0.0)), point(4, 50.0, Some(5.0))];
+        interpolate(&mut pts, &frames, 20);
+        let xs: Vec<f64> = pts.iter().map(|p| p.bbox.x).collect();
+        assert_eq!(
+            pts.iter().map(|p| p.pos).collect::<Vec<_>>(),
+            vec![0, 1, 2, 3, 4]
+        );
+        // frame 4 is 4/5 of the way
+        assert_relative_eq!(xs[3], 40.0);
+        assert_relative_eq!(pts[2].obs_ne_m.unwrap().x, 2.0);
+        assert!(pts[1].interpolated && !pts[4].interpolated);
+        assert_eq!(pts[1].class_id, None);
+    }
+
+    #[test]
+    fn empty_sequence_gives_empty_result() {
+        let r = track_sequence(&[], &TrackerParams::default()).unwrap();
+        assert!(r.frames.is_empty() && r.relabelled.is_empty());
+        let frames: Vec<_> = (0..3).map(frame).collect();
+        let r = track_sequence(&frames, &TrackerParams::default()).unwrap();
+        assert_eq!(r.frames.len(), 3);
+        assert!(r.frames.iter().all(|f| f.tracks.is_empty()));
+    }
+
+    #[test]
+    fn interpolation_leaves_long_gaps_open() {
+        let frames: Vec<_> = (0..10).map(frame).collect();
+        let mut pts = vec![point(0, 0.0, None), point(9, 90.0, None)];
+        interpolate(&mut pts, &frames, 7);
+        assert_eq!(pts.len(), 2);
+        interpolate(&mut pts, &frames, 8);
+        assert_eq!(pts.len(), 10);
+        assert!(pts.iter().all(|p| p.obs_ne_m.is_none()));
+    }
+}

@@ -1,0 +1,668 @@
+//! The online tracker: BoT-SORT-style association per frame plus MG-MOT ReID, decided once a
+//! new track has lived `w` frames and reported as a merge event.
+
+use std::collections::VecDeque;
+
+use nalgebra::Vector2;
+
+use super::assign::{apply_gate, solve_gated};
+use super::bbox::BBox;
+use super::kalman::BoxKalman;
+use super::nms::nms_prefer_larger_into;
+use super::params::TrackerParams;
+use super::reid::{associate_exits_to_entries_where, window_velocity, TrackEnd};
+use super::types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
+use super::world::{WorldFilter, WorldObservation};
+use super::TrackError;
+
+/// Where a live track is in the BoT-SORT life cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    Tracked,
+    Lost,
+    Removed,
+}
+
+/// One track as the tracker keeps it.
+#[derive(Debug, Clone)]
+struct Track {
+    /// Baseline identity: never changes, keys the memory bank.
+    uid: u64,
+    /// Reported id; becomes the old id when online ReID links this track.
+    id: u64,
+    /// Image-plane box state.
+    kf: BoxKalman,
+    /// Life-cycle state.
+    phase: Phase,
+    /// BoT-SORT `is_activated`: matched at least twice (or born in the first frame).
+    activated: bool,
+    /// Score of the last matched detection (the reported confidence).
+    score: f32,
+    /// (class id, count) of every matched detection, for the majority vote.
+    class_votes: Vec<(u32, u32)>,
+    /// Frame the track was born in (age for duplicates and the ReID window).
+    start_frame: u64,
+    /// Last frame with a matched detection.
+    end_frame: u64,
+    /// World position/velocity filter, from the first world observation on.
+    world: Option<WorldFilter>,
+    /// First `w + 1` world observations `(time_s, pos)`: entry position and velocity.
+    head: Vec<(f64, Vector2<f64>)>,
+    /// Last `w + 1` world observations: exit position and velocity.
+    tail: VecDeque<(f64, Vector2<f64>)>,
+    /// Last matched detection box and the image size it was seen in (did it leave the view?).
+    last_bbox: BBox,
+    /// Image size of the frame `last_bbox` was seen in.
+    last_image_size_px: (u32, u32),
+    /// Online ReID has been tried for this track (once, at `w` frames).
+    reid_decided: bool,
+    /// Detection matched in the current frame.
+    matched_det: Option<usize>,
+}
+
+impl Track {
+    fn class_id(&self) -> u32 {
+        majority_class(&self.class_votes)
+    }
+
+    /// The track's exit as seen by ReID, if it has world observations.
+    fn exit(&self, window: usize, border_fraction: f64) -> Option<TrackEnd> {
+        let last = *self.tail.back()?;
+        let earlier = self.tail[self.tail.len().saturating_sub(window + 1)];
+        Some(TrackEnd {
+            class_id: self.class_id(),
+            time_s: last.0,
+            pos_ne_m: last.1,
+            vel_ne_m_s: window_velocity(earlier, last),
+            left_view: self
+                .last_bbox
+                .touches_border(self.last_image_size_px, border_fraction),
+        })
+    }
+
+    /// The track's entry as seen by ReID, if it has world observations.
+    fn entry(&self, window: usize) -> Option<TrackEnd> {
+        let first = *self.head.first()?;
+        let later = self.head[window.min(self.head.len() - 1)];
+        Some(TrackEnd {
+            class_id: self.class_id(),
+            time_s: first.0,
+            pos_ne_m: first.1,
+            vel_ne_m_s: window_velocity(first, later),
+            left_view: false,
+        })
+    }
+}
+
+/// Majority vote; ties go to the lower class id so the result is deterministic.
+pub(crate) fn majority_class(votes: &[(u32, u32)]) -> u32 {
+    votes
+        .iter()
+        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+        .map_or(0, |v| v.0)
+}
+
+pub(crate) fn add_vote(votes: &mut Vec<(u32, u32)>, class_id: u32) {
+    match votes.iter_mut().find(|v| v.0 == class_id) {
+        Some(v) => v.1 += 1,
+        None => votes.push((class_id, 1)),
+    }
+}
+
+/// A finished (lost or removed) track waiting in the memory bank for re-identification.
+#[derive(Debug, Clone)]
+struct MemoryEntry {
+    /// Baseline identity of the lost track (to drop the entry if IoU matching resumes it).
+    uid: u64,
+    /// Reported id a linked track will take over.
+    id: u64,
+    /// Last frame the track was matched in: a candidate must start after it.
+    end_frame: u64,
+    /// Where, when and how fast it was last seen.
+    exit: TrackEnd,
+}
+
+/// Buffers reused across frames so a step does not allocate per detection or track.
+#[derive(Debug, Clone, Default)]
+struct Scratch {
+    boxes: Vec<BBox>,
+    candidates: Vec<usize>,
+    kept: Vec<usize>,
+    high: Vec<usize>,
+    low: Vec<usize>,
+    det_used: Vec<bool>,
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    cost: Vec<f64>,
+    pairs: Vec<(usize, usize)>,
+    track_matched: Vec<bool>,
+}
+
+/// The online tracker: feed it frames in order with [`Tracker::step`].
+///
+/// Per frame: prefer-larger NMS, camera-motion compensation with the caller's homography,
+/// BoT-SORT's three association stages (high-confidence detections against confirmed and
+/// lost tracks, low-confidence detections against the remaining tracked ones, high against
+/// tentative tracks), new tracks, lost-track expiry. Every matched detection with a world
+/// observation updates the track's world filter. A track that had been reported and is lost
+/// enters the memory bank; a new track that has lived `w` frames is matched against the bank
+/// (short-term, then long-term ReID) and, if linked, takes the old id from then on, with a
+/// [`MergeEvent`].
+#[derive(Debug, Clone)]
+pub struct Tracker {
+    /// Validated parameters, fixed for the tracker's life.
+    params: TrackerParams,
+    /// Tentative, confirmed and lost tracks (removed ones are dropped at the end of a step).
+    tracks: Vec<Track>,
+    /// The MG-MOT memory bank: exits of reported tracks that were lost, waiting for ReID.
+    memory: Vec<MemoryEntry>,
+    /// Next baseline id; ids are never reused.
+    next_uid: u64,
+    /// Steps so far: BoT-SORT activates the tracks of the very first frame at once.
+    steps: u64,
+    /// Frame number of the previous step: frame gaps drive prediction and the lost buffer.
+    last_frame_index: Option<u64>,
+    /// Time of the previous step, s: rejects time going backwards; world predictions.
+    last_time_s: f64,
+    /// Reused buffers.
+    scratch: Scratch,
+}
+
+impl Tracker {
+    /// A tracker with validated parameters.
+    pub fn new(params: TrackerParams) -> Result<Self, TrackError> {
+        params.validate()?;
+        Ok(Self {
+            params,
+            tracks: Vec::new(),
+            memory: Vec::new(),
+            next_uid: 1,
+            steps: 0,
+            last_frame_index: None,
+            last_time_s: f64::NEG_INFINITY,
+            scratch: Scratch::default(),
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &TrackerParams {
+        &self.params
+    }
+
+    /// Number of tracks currently kept (tentative, confirmed and lost).
+    pub fn live_track_count(&self) -> usize {
+        self.tracks.len()
+    }
+
+    /// Every track the tracker keeps after the last step, in any state (the step output
+    /// holds the confirmed ones only): lost tracks report their Kalman-predicted box and
+    /// their world state predicted to the last frame's time, with no detection.
+    pub fn live_tracks(&self) -> impl Iterator<Item = TrackOutput> + '_ {
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        self.tracks.iter().map(move |t| {
+            let state = match (t.phase, t.activated) {
+                (Phase::Tracked, true) => TrackState::Confirmed,
+                (Phase::Tracked, false) => TrackState::Tentative,
+                (Phase::Lost, _) => TrackState::Lost,
+                (Phase::Removed, _) => TrackState::Removed,
+            };
+            TrackOutput {
+                id: t.id,
+                bbox: t.kf.bbox(),
+                score: t.score,
+                class_id: t.class_id(),
+                state,
+                world: t
+                    .world
+                    .as_ref()
+                    .map(|w| w.predicted(self.last_time_s, accel)),
+                detection_index: t.matched_det,
+            }
+        })
+    }
+
+    /// Processes one frame. Frames must come in increasing `frame_index` order; an
+    /// out-of-order frame is rejected without changing the tracker.
+    pub fn step(&mut self, input: &FrameInput) -> Result<FrameOutput, TrackError> {
+        if let Some(last) = self.last_frame_index {
+            if input.frame_index <= last {
+                return Err(TrackError::FrameOrder {
+                    frame_index: input.frame_index,
+                    previous: last,
+                });
+            }
+        }
+        if !input.time_s.is_finite() || input.time_s < self.last_time_s {
+            return Err(TrackError::TimeOrder {
+                frame_index: input.frame_index,
+                time_s: input.time_s,
+            });
+        }
+        let dt_frames = self
+            .last_frame_index
+            .map_or(1.0, |last| (input.frame_index - last) as f64);
+        self.last_frame_index = Some(input.frame_index);
+        self.last_time_s = input.time_s;
+        self.steps += 1;
+
+        self.select_detections(&input.detections);
+        self.predict_and_compensate(dt_frames, input);
+        self.associate(input);
+        self.expire(input);
+
+        let mut merges = Vec::new();
+        if self.params.reid.enabled {
+            self.online_reid(input.frame_index, false, &mut merges);
+        }
+        self.tracks.retain(|t| t.phase != Phase::Removed);
+
+        let mut tracks: Vec<TrackOutput> = self
+            .tracks
+            .iter()
+            .filter(|t| t.phase == Phase::Tracked && t.activated)
+            .map(|t| TrackOutput {
+                id: t.id,
+                bbox: t.kf.bbox(),
+                score: t.score,
+                class_id: t.class_id(),
+                state: TrackState::Confirmed,
+                world: t.world.as_ref().map(|w| *w.state()),
+                detection_index: t.matched_det,
+            })
+            .collect();
+        tracks.sort_by_key(|t| t.id);
+        Ok(FrameOutput {
+            frame_index: input.frame_index,
+            tracks,
+            merges,
+        })
+    }
+
+    /// Ends the sequence: tracks younger than `w` frames get their ReID decision now (with
+    /// the observations they have). Returns the resulting merges; the tracker may keep going
+    /// afterwards.
+    pub fn finish(&mut self) -> Vec<MergeEvent> {
+        let mut merges = Vec::new();
+        if self.params.reid.enabled {
+            let frame_index = self.last_frame_index.unwrap_or(0);
+            self.online_reid(frame_index, true, &mut merges);
+        }
+        self.tracks.retain(|t| t.phase != Phase::Removed);
+        merges
+    }
+
+    /// Valid detections above the low threshold, NMS, split into high and low confidence.
+    fn select_detections(&mut self, detections: &[Detection]) {
+        let b = &self.params.baseline;
+        let s = &mut self.scratch;
+        s.boxes.clear();
+        s.boxes.extend(detections.iter().map(|d| d.bbox));
+        s.candidates.clear();
+        s.candidates.extend((0..detections.len()).filter(|&i| {
+            let d = &detections[i];
+            d.bbox.is_valid() && d.score.is_finite() && d.score >= b.track_low_thresh
+        }));
+        if let Some(thr) = b.nms_iou_threshold {
+            nms_prefer_larger_into(&s.boxes, thr, &mut s.candidates, &mut s.kept);
+            std::mem::swap(&mut s.candidates, &mut s.kept);
+        }
+        s.high.clear();
+        s.low.clear();
+        for &i in &s.candidates {
+            if detections[i].score >= b.track_high_thresh {
+                s.high.push(i);
+            } else {
+                s.low.push(i);
+            }
+        }
+        s.det_used.clear();
+        s.det_used.resize(detections.len(), false);
+    }
+
+    fn predict_and_compensate(&mut self, dt_frames: f64, input: &FrameInput) {
+        for t in &mut self.tracks {
+            t.matched_det = None;
+            let in_pool = t.phase == Phase::Lost || (t.phase == Phase::Tracked && t.activated);
+            if in_pool {
+                if t.phase != Phase::Tracked {
+                    // BoT-SORT: a coasting track keeps its size.
+                    t.kf.mean[6] = 0.0;
+                    t.kf.mean[7] = 0.0;
+                }
+                t.kf.predict(dt_frames);
+            }
+            if let Some(h) = &input.image_motion {
+                t.kf.apply_homography(h);
+            }
+        }
+    }
+
+    fn associate(&mut self, input: &FrameInput) {
+        let dets = &input.detections;
+        let b = self.params.baseline.clone();
+        let n = self.tracks.len();
+        self.scratch.track_matched.clear();
+        self.scratch.track_matched.resize(n, false);
+
+        // Stage 1: confirmed + lost tracks against high-confidence detections.
+        let rows: Vec<usize> = std::mem::take(&mut self.scratch.rows);
+        let mut rows = rows;
+        rows.clear();
+        rows.extend((0..n).filter(|&i| {
+            let t = &self.tracks[i];
+            t.phase == Phase::Lost || (t.phase == Phase::Tracked && t.activated)
+        }));
+        let high = std::mem::take(&mut self.scratch.high);
+        self.match_stage(&rows, &high, dets, b.match_thresh, b.fuse_score, input);
+
+        // Stage 2: still-unmatched tracked tracks against low-confidence detections.
+        rows.retain(|&i| !self.scratch.track_matched[i] && self.tracks[i].phase == Phase::Tracked);
+        let low = std::mem::take(&mut self.scratch.low);
+        self.match_stage(&rows, &low, dets, b.second_match_thresh, false, input);
+        for &i in &rows {
+            if !self.scratch.track_matched[i] {
+                self.mark_lost(i);
+            }
+        }
+
+        // Stage 3: tentative tracks against the remaining high-confidence detections.
+        rows.clear();
+        rows.extend((0..n).filter(|&i| {
+            let t = &self.tracks[i];
+            t.phase == Phase::Tracked && !t.activated
+        }));
+        let mut rest: Vec<usize> = std::mem::take(&mut self.scratch.cols);
+        rest.clear();
+        rest.extend(high.iter().copied().filter(|&j| !self.scratch.det_used[j]));
+        self.match_stage(
+            &rows,
+            &rest,
+            dets,
+            b.unconfirmed_match_thresh,
+            b.fuse_score,
+            input,
+        );
+        for &i in &rows {
+            if !self.scratch.track_matched[i] {
+                self.tracks[i].phase = Phase::Removed;
+            }
+        }
+
+        // Stage 4: new tracks.
+        let first_frame = self.steps == 1;
+        for &j in &rest {
+            if self.scratch.det_used[j] || dets[j].score < b.new_track_thresh {
+                continue;
+            }
+            self.scratch.det_used[j] = true;
+            let uid = self.next_uid;
+            self.next_uid += 1;
+            let mut t = Track {
+                uid,
+                id: uid,
+                kf: BoxKalman::initiate(&dets[j].bbox),
+                phase: Phase::Tracked,
+                activated: first_frame,
+                score: dets[j].score,
+                class_votes: Vec::with_capacity(2),
+                start_frame: input.frame_index,
+                end_frame: input.frame_index,
+                world: None,
+                head: Vec::new(),
+                tail: VecDeque::new(),
+                last_bbox: dets[j].bbox,
+                last_image_size_px: input.image_size_px,
+                reid_decided: false,
+                matched_det: Some(j),
+            };
+            add_vote(&mut t.class_votes, dets[j].class_id);
+            let window = self.params.reid.window_frames as usize;
+            record_world(
+                &mut t,
+                dets[j].world.as_ref(),
+                input.time_s,
+                window,
+                self.params.baseline.world_accel_std_m_s2,
+            );
+            self.tracks.push(t);
+        }
+
+        self.scratch.rows = rows;
+        self.scratch.high = high;
+        self.scratch.low = low;
+        self.scratch.cols = rest;
+    }
+
+    /// One gated assignment stage between `rows` (track indices) and `cols` (detection
+    /// indices); matched tracks are updated.
+    fn match_stage(
+        &mut self,
+        rows: &[usize],
+        cols: &[usize],
+        dets: &[Detection],
+        gate: f64,
+        fuse_score: bool,
+        input: &FrameInput,
+    ) {
+        let cols_free = cols.iter().filter(|&&j| !self.scratch.det_used[j]).count();
+        if rows.is_empty() || cols_free == 0 {
+            return;
+        }
+        let s = &mut self.scratch;
+        s.cost.clear();
+        for &i in rows {
+            let tb = self.tracks[i].kf.bbox();
+            for &j in cols {
+                if s.det_used[j] {
+                    s.cost.push(f64::INFINITY);
+                    continue;
+                }
+                let mut sim = tb.iou(&dets[j].bbox);
+                if fuse_score {
+                    sim *= f64::from(dets[j].score);
+                }
+                s.cost.push(1.0 - sim);
+            }
+        }
+        apply_gate(&mut s.cost, gate);
+        let mut pairs = std::mem::take(&mut s.pairs);
+        solve_gated(rows.len(), cols.len(), &mut s.cost, &mut pairs);
+        for &(r, c) in &pairs {
+            let (i, j) = (rows[r], cols[c]);
+            self.scratch.track_matched[i] = true;
+            self.scratch.det_used[j] = true;
+            self.update_track(i, j, &dets[j], input);
+        }
+        self.scratch.pairs = pairs;
+    }
+
+    fn update_track(&mut self, i: usize, j: usize, det: &Detection, input: &FrameInput) {
+        let window = self.params.reid.window_frames as usize;
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        let t = &mut self.tracks[i];
+        let was_lost = t.phase == Phase::Lost;
+        t.kf.update(&det.bbox);
+        t.phase = Phase::Tracked;
+        t.activated = true;
+        t.score = det.score;
+        t.end_frame = input.frame_index;
+        t.last_bbox = det.bbox;
+        t.last_image_size_px = input.image_size_px;
+        t.matched_det = Some(j);
+        add_vote(&mut t.class_votes, det.class_id);
+        record_world(t, det.world.as_ref(), input.time_s, window, accel);
+        if was_lost {
+            let uid = t.uid;
+            self.memory.retain(|m| m.uid != uid);
+        }
+    }
+
+    fn mark_lost(&mut self, i: usize) {
+        let reid = &self.params.reid;
+        let t = &mut self.tracks[i];
+        t.phase = Phase::Lost;
+        if !reid.enabled {
+            return;
+        }
+        if let Some(exit) = t.exit(reid.window_frames as usize, reid.exit_border_fraction) {
+            self.memory.push(MemoryEntry {
+                uid: t.uid,
+                id: t.id,
+                end_frame: t.end_frame,
+                exit,
+            });
+        }
+    }
+
+    /// Lost-track buffer, duplicate removal, memory-bank expiry.
+    fn expire(&mut self, input: &FrameInput) {
+        let buffer = self.params.baseline.track_buffer_frames;
+        for t in &mut self.tracks {
+            if t.phase == Phase::Lost && input.frame_index.saturating_sub(t.end_frame) > buffer {
+                t.phase = Phase::Removed;
+            }
+        }
+        // BoT-SORT remove_duplicate_stracks: a tracked and a lost track on the same box.
+        let thr = self.params.baseline.duplicate_iou_dist;
+        let n = self.tracks.len();
+        for p in 0..n {
+            if self.tracks[p].phase != Phase::Tracked {
+                continue;
+            }
+            for q in 0..n {
+                if self.tracks[q].phase != Phase::Lost {
+                    continue;
+                }
+                let (tp, tq) = (&self.tracks[p], &self.tracks[q]);
+                if 1.0 - tp.kf.bbox().iou(&tq.kf.bbox()) < thr {
+                    let age_p = input.frame_index - tp.start_frame;
+                    let age_q = input.frame_index - tq.start_frame;
+                    if age_p > age_q {
+                        self.tracks[q].phase = Phase::Removed;
+                    } else {
+                        self.tracks[p].phase = Phase::Removed;
+                        break;
+                    }
+                }
+            }
+        }
+        let max_s = self.params.reid.memory_max_s;
+        self.memory
+            .retain(|m| input.time_s - m.exit.time_s <= max_s);
+    }
+
+    /// Links tracks that have lived `w` frames (all undecided ones with `force`) to the memory
+    /// bank.
+    fn online_reid(&mut self, frame_index: u64, force: bool, merges: &mut Vec<MergeEvent>) {
+        let w = u64::from(self.params.reid.window_frames);
+        let window = self.params.reid.window_frames as usize;
+        let mut cand = Vec::new();
+        let mut cand_start = Vec::new();
+        let mut entries = Vec::new();
+        for (k, t) in self.tracks.iter_mut().enumerate() {
+            if t.reid_decided || t.phase != Phase::Tracked || !t.activated {
+                continue;
+            }
+            if !force && frame_index.saturating_sub(t.start_frame) < w {
+                continue;
+            }
+            t.reid_decided = true;
+            if let Some(e) = t.entry(window) {
+                cand.push(k);
+                cand_start.push(t.start_frame);
+                entries.push(e);
+            }
+        }
+        if cand.is_empty() || self.memory.is_empty() {
+            return;
+        }
+        let exits: Vec<TrackEnd> = self.memory.iter().map(|m| m.exit).collect();
+        let memory = &self.memory;
+        let links =
+            associate_exits_to_entries_where(&exits, &entries, &self.params.reid, |i, j| {
+                cand_start[j] > memory[i].end_frame
+            });
+        if links.is_empty() {
+            return;
+        }
+        let mut consumed = vec![false; self.memory.len()];
+        for &(mi, ci) in &links {
+            let (old_uid, old_id) = (self.memory[mi].uid, self.memory[mi].id);
+            consumed[mi] = true;
+            let t = &mut self.tracks[cand[ci]];
+            merges.push(MergeEvent {
+                new_id: t.id,
+                merged_into_id: old_id,
+                frame_index,
+            });
+            tracing::debug!(
+                new_id = t.id,
+                merged_into_id = old_id,
+                frame_index,
+                "ReID merge"
+            );
+            t.id = old_id;
+            // The old track must not come back through IoU under the same id.
+            for o in &mut self.tracks {
+                if o.uid == old_uid && o.phase == Phase::Lost {
+                    o.phase = Phase::Removed;
+                }
+            }
+        }
+        let mut k = 0;
+        self.memory.retain(|_| {
+            let keep = !consumed[k];
+            k += 1;
+            keep
+        });
+        merges.sort_by_key(|m| m.new_id);
+    }
+}
+
+/// Feeds a matched detection's world observation to the track's world filter and history.
+fn record_world(
+    t: &mut Track,
+    obs: Option<&WorldObservation>,
+    time_s: f64,
+    window: usize,
+    accel_std_m_s2: f64,
+) {
+    let Some(obs) = obs else {
+        return;
+    };
+    if !(obs.pos_ne_m.iter().all(|v| v.is_finite()) && obs.cov_ne_m2.iter().all(|v| v.is_finite()))
+    {
+        return;
+    }
+    match &mut t.world {
+        Some(f) => {
+            f.predict(time_s, accel_std_m_s2);
+            f.update(obs);
+        }
+        None => t.world = Some(WorldFilter::initiate(obs, time_s)),
+    }
+    if t.head.len() <= window {
+        t.head.push((time_s, obs.pos_ne_m));
+    }
+    if t.tail.len() > window {
+        t.tail.pop_front();
+    }
+    t.tail.push_back((time_s, obs.pos_ne_m));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn majority_vote_with_deterministic_ties() {
+        let mut v = Vec::new();
+        for c in [2, 1, 2, 1, 3] {
+            add_vote(&mut v, c);
+        }
+        assert_eq!(majority_class(&v), 1); // 1 and 2 tie at two votes: lower id
+        add_vote(&mut v, 2);
+        assert_eq!(majority_class(&v), 2);
+        assert_eq!(majority_class(&[]), 0);
+    }
+}

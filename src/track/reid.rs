@@ -1,0 +1,369 @@
+//! MG-MOT metadata-guided re-identification (paper Sec. 3.2, Eq. 5-9), shared by the online
+//! tracker and the offline post-processing.
+//!
+//! A finished track ("exit", `T_i` in the paper, waiting in the memory bank) is linked to a
+//! track that started later ("entry", `T_j`) of the same class:
+//!
+//! 1. short-term ReID (Eq. 6): exits lost *inside* the view, cost = world distance between
+//!    the exit and the entry position, gated by `tau_match`;
+//! 2. long-term ReID: every pair left over, positions extrapolated towards each other with
+//!    BiME (Eq. 7-8, [`extrapolate_bidirectional`]) and gated by the MTE threshold (Eq. 9,
+//!    [`expanded_match_threshold`]).
+//!
+//! Each stage is one Hungarian assignment per class (class-wise ReID): tracks of different
+//! classes are never linked.
+//!
+//! **Time units.** The paper counts time in frames; here every time is in seconds (frames
+//! can be dropped, the frame rate is not constant): velocities are m/s, `dt` is s, `lambda`
+//! is 1/s and `tau_memory` is s. Only the window `w` stays in frames (observations).
+
+use std::collections::BTreeSet;
+
+use nalgebra::Vector2;
+
+use super::assign::solve_gated;
+use super::params::ReidParams;
+
+/// One end of a track as seen by ReID: where and when it was last (exit) or first (entry)
+/// observed on the sea, and its velocity over the window `w` there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackEnd {
+    /// Class of the track (majority vote).
+    pub class_id: u32,
+    /// Time of the exit (last observation) or entry (first observation), s.
+    pub time_s: f64,
+    /// World position at that time, north/east m (`X^3D_t_exit` or `X^3D_t_entry`).
+    pub pos_ne_m: Vector2<f64>,
+    /// Velocity at that end over the window w, m/s (Eq. 8).
+    pub vel_ne_m_s: Vector2<f64>,
+    /// For an exit: whether the track's last box touched the image border (it left the view;
+    /// only long-term ReID applies). Ignored for entries.
+    pub left_view: bool,
+}
+
+/// Exit (or entry) velocity over the window, Eq. 8:
+/// `V = (X_t_exit - X_t_exit-w) / w`, with the window measured in seconds between the two
+/// observations instead of frames (`earlier` and `later` are `(time_s, position)`).
+/// Returns zero when the two observations are not strictly ordered in time.
+pub fn window_velocity(earlier: (f64, Vector2<f64>), later: (f64, Vector2<f64>)) -> Vector2<f64> {
+    let dt = later.0 - earlier.0;
+    if dt > 0.0 && dt.is_finite() {
+        (later.1 - earlier.1) / dt
+    } else {
+        Vector2::zeros()
+    }
+}
+
+/// Movement extrapolation, Eq. 7: `X + dt * V`, with `|dt|` capped at `tau_memory_s`
+/// ("we will not extrapolate further beyond tau_memory"). A negative `dt_s` extrapolates
+/// backwards (used for entries).
+pub fn extrapolate(
+    pos_ne_m: Vector2<f64>,
+    vel_ne_m_s: Vector2<f64>,
+    dt_s: f64,
+    tau_memory_s: f64,
+) -> Vector2<f64> {
+    let dt = dt_s.clamp(-tau_memory_s, tau_memory_s);
+    pos_ne_m + vel_ne_m_s * dt
+}
+
+/// Result of [`extrapolate_bidirectional`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BidirectionalExtrapolation {
+    /// The exit position extrapolated forward, m.
+    pub exit_forward_ne_m: Vector2<f64>,
+    /// The entry position extrapolated backward, m.
+    pub entry_backward_ne_m: Vector2<f64>,
+    /// Time from the exit to the meeting time, s (`dt_exit` of Eq. 9).
+    pub dt_exit_s: f64,
+    /// Time from the meeting time back to the entry, s (`dt_entry` of Eq. 9).
+    pub dt_entry_s: f64,
+}
+
+impl BidirectionalExtrapolation {
+    /// Distance between the two extrapolated positions, m: the long-term ReID cost.
+    pub fn distance_m(&self) -> f64 {
+        (self.exit_forward_ne_m - self.entry_backward_ne_m).norm()
+    }
+}
+
+/// Bi-directional movement extrapolation (BiME, Eq. 7-8): the exit is extrapolated forward
+/// and the entry backward, each by half the gap, so they meet at the gap's midpoint
+/// (`dt_exit = dt_entry = (t_entry - t_exit) / 2`); each extrapolation is capped at
+/// `tau_memory_s`. The paper leaves the meeting time open; the midpoint shares the
+/// extrapolation error evenly between the two velocity estimates.
+pub fn extrapolate_bidirectional(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    tau_memory_s: f64,
+) -> BidirectionalExtrapolation {
+    let half_gap = ((entry.time_s - exit.time_s) / 2.0).max(0.0);
+    BidirectionalExtrapolation {
+        exit_forward_ne_m: extrapolate(exit.pos_ne_m, exit.vel_ne_m_s, half_gap, tau_memory_s),
+        entry_backward_ne_m: extrapolate(entry.pos_ne_m, entry.vel_ne_m_s, -half_gap, tau_memory_s),
+        dt_exit_s: half_gap,
+        dt_entry_s: half_gap,
+    }
+}
+
+/// Matching threshold expansion (MTE, Eq. 9): `tau' = lambda * (dt_exit + dt_entry) * tau_match`.
+///
+/// Units: `dt_exit_s`, `dt_entry_s` in seconds (the full, uncapped times, since the object's
+/// possible displacement keeps growing after extrapolation stops), `lambda_per_s` in 1/s, so
+/// `lambda * (dt_exit + dt_entry)` is a dimensionless factor and the result is in metres.
+///
+/// Combination with tau_match: Eq. 9 alone shrinks to zero for a short gap, which would make
+/// a link after a brief occlusion impossible, so the gate never goes below the short-term
+/// gate `tau_match`; it is also capped at `max_gate_m`:
+/// `clamp(lambda * (dt_exit + dt_entry) * tau_match, tau_match, max_gate)`.
+pub fn expanded_match_threshold(
+    tau_match_m: f64,
+    lambda_per_s: f64,
+    dt_exit_s: f64,
+    dt_entry_s: f64,
+    max_gate_m: f64,
+) -> f64 {
+    let expanded = lambda_per_s * (dt_exit_s + dt_entry_s) * tau_match_m;
+    let expanded = if expanded.is_finite() {
+        expanded
+    } else {
+        max_gate_m
+    };
+    expanded.max(tau_match_m).min(max_gate_m.max(tau_match_m))
+}
+
+/// Short-term ReID cost, Eq. 6: `|| X_t_exit_i - X_t_entry_j ||`, m.
+pub fn short_term_cost(exit: &TrackEnd, entry: &TrackEnd) -> f64 {
+    (exit.pos_ne_m - entry.pos_ne_m).norm()
+}
+
+/// Whether an exit may be linked to an entry at all: same class, the entry strictly after
+/// the exit (the two tracks never coexisted), and the gap within the memory.
+fn may_link(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
+    let gap = entry.time_s - exit.time_s;
+    exit.class_id == entry.class_id && gap > 0.0 && gap <= params.memory_max_s
+}
+
+/// Links exits to entries: short-term then long-term ReID, one Hungarian assignment per
+/// class and stage. Returns `(exit index, entry index)` pairs; every exit and every entry
+/// appears at most once. Deterministic: classes are processed in ascending id order and the
+/// solver is deterministic.
+pub fn associate_exits_to_entries(
+    exits: &[TrackEnd],
+    entries: &[TrackEnd],
+    params: &ReidParams,
+) -> Vec<(usize, usize)> {
+    associate_exits_to_entries_where(exits, entries, params, |_, _| true)
+}
+
+/// [`associate_exits_to_entries`] with an extra admissibility test `allowed(exit index,
+/// entry index)` (the callers use it to forbid tracks whose frame spans overlap even where
+/// their world observations do not).
+pub fn associate_exits_to_entries_where(
+    exits: &[TrackEnd],
+    entries: &[TrackEnd],
+    params: &ReidParams,
+    allowed: impl Fn(usize, usize) -> bool,
+) -> Vec<(usize, usize)> {
+    let mut links = Vec::new();
+    if !params.enabled || exits.is_empty() || entries.is_empty() {
+        return links;
+    }
+    let mut exit_used = vec![false; exits.len()];
+    let mut entry_used = vec![false; entries.len()];
+    let classes: BTreeSet<u32> = exits.iter().map(|e| e.class_id).collect();
+    let mut cost = Vec::new();
+    let mut pairs = Vec::new();
+    for class_id in classes {
+        let cp = params.class(class_id);
+        for long_term in [false, true] {
+            if (long_term && !params.long_term) || (!long_term && !params.short_term) {
+                continue;
+            }
+            let rows: Vec<usize> = (0..exits.len())
+                .filter(|&i| !exit_used[i] && exits[i].class_id == class_id)
+                .filter(|&i| long_term || !exits[i].left_view)
+                .collect();
+            let cols: Vec<usize> = (0..entries.len())
+                .filter(|&j| !entry_used[j] && entries[j].class_id == class_id)
+                .collect();
+            if rows.is_empty() || cols.is_empty() {
+                continue;
+            }
+            cost.clear();
+            for &i in &rows {
+                for &j in &cols {
+                    let (x, y) = (&exits[i], &entries[j]);
+                    let c = if !may_link(x, y, params) || !allowed(i, j) {
+                        f64::INFINITY
+                    } else if long_term {
+                        let bime = extrapolate_bidirectional(x, y, cp.tau_memory_s);
+                        let gate = expanded_match_threshold(
+                            cp.tau_match_m,
+                            cp.lambda_per_s,
+                            bime.dt_exit_s,
+                            bime.dt_entry_s,
+                            cp.max_gate_m,
+                        );
+                        let d = bime.distance_m();
+                        if d <= gate {
+                            d
+                        } else {
+                            f64::INFINITY
+                        }
+                    } else {
+                        let d = short_term_cost(x, y);
+                        if d <= cp.tau_match_m {
+                            d
+                        } else {
+                            f64::INFINITY
+                        }
+                    };
+                    cost.push(c);
+                }
+            }
+            solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
+            for &(r, c) in &pairs {
+                let (i, j) = (rows[r], cols[c]);
+                exit_used[i] = true;
+                entry_used[j] = true;
+                links.push((i, j));
+            }
+        }
+    }
+    links.sort_unstable();
+    links
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use proptest::prelude::*;
+
+    fn end(class_id: u32, t: f64, n: f64, e: f64, vn: f64, ve: f64, left: bool) -> TrackEnd {
+        TrackEnd {
+            class_id,
+            time_s: t,
+            pos_ne_m: Vector2::new(n, e),
+            vel_ne_m_s: Vector2::new(vn, ve),
+            left_view: left,
+        }
+    }
+
+    #[test]
+    fn window_velocity_is_displacement_over_seconds() {
+        let v = window_velocity(
+            (1.0, Vector2::new(0.0, 0.0)),
+            (3.0, Vector2::new(4.0, -2.0)),
+        );
+        assert_relative_eq!(v, Vector2::new(2.0, -1.0));
+        assert_eq!(
+            window_velocity((3.0, Vector2::new(0.0, 0.0)), (3.0, Vector2::new(4.0, 0.0))),
+            Vector2::zeros()
+        );
+    }
+
+    #[test]
+    fn extrapolation_is_capped_by_tau_memory() {
+        let p = extrapolate(Vector2::zeros(), Vector2::new(1.0, 0.0), 10.0, 3.0);
+        assert_relative_eq!(p, Vector2::new(3.0, 0.0));
+        let p = extrapolate(Vector2::zeros(), Vector2::new(1.0, 0.0), -10.0, 3.0);
+        assert_relative_eq!(p, Vector2::new(-3.0, 0.0));
+    }
+
+    #[test]
+    fn bime_meets_in_the_middle_for_constant_velocity() {
+        // object moving 2 m/s north: exit at t=0 at n=0, entry at t=10 at n=20
+        let x = end(2, 0.0, 0.0, 0.0, 2.0, 0.0, true);
+        let y = end(2, 10.0, 20.0, 0.0, 2.0, 0.0, false);
+        let b = extrapolate_bidirectional(&x, &y, 100.0);
+        assert_relative_eq!(b.distance_m(), 0.0, epsilon = 1e-12);
+        assert_relative_eq!(b.dt_exit_s, 5.0);
+        assert_relative_eq!(b.dt_entry_s, 5.0);
+        // with tau_memory 2 s each side moves only 4 m: 12 m remain
+        let b = extrapolate_bidirectional(&x, &y, 2.0);
+        assert_relative_eq!(b.distance_m(), 12.0, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn mte_never_below_tau_match_and_capped() {
+        assert_relative_eq!(expanded_match_threshold(5.0, 0.1, 0.0, 0.0, 50.0), 5.0);
+        assert_relative_eq!(expanded_match_threshold(5.0, 0.1, 0.5, 0.5, 50.0), 5.0);
+        // 30 s gap: 0.1 * 30 * 5 = 15 m
+        assert_relative_eq!(expanded_match_threshold(5.0, 0.1, 15.0, 15.0, 50.0), 15.0);
+        assert_relative_eq!(expanded_match_threshold(5.0, 0.1, 500.0, 500.0, 50.0), 50.0);
+        assert_relative_eq!(
+            expanded_match_threshold(5.0, 0.1, f64::INFINITY, 1.0, 50.0),
+            50.0
+        );
+    }
+
+    #[test]
+    fn short_term_links_nearest_within_gate() {
+        let p = ReidParams::default();
+        let exits = [
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, false),
+            end(1, 0.0, 10.0, 0.0, 0.0, 0.0, false),
+        ];
+        let entries = [
+            end(1, 1.0, 10.5, 0.0, 0.0, 0.0, false),
+            end(1, 1.0, 0.5, 0.0, 0.0, 0.0, false),
+            end(1, 1.0, 40.0, 0.0, 0.0, 0.0, false),
+        ];
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p),
+            vec![(0, 1), (1, 0)]
+        );
+    }
+
+    #[test]
+    fn classes_are_never_linked_and_order_in_time_is_required() {
+        let p = ReidParams::default();
+        let exits = [end(1, 5.0, 0.0, 0.0, 0.0, 0.0, false)];
+        let other_class = [end(2, 6.0, 0.0, 0.0, 0.0, 0.0, false)];
+        assert!(associate_exits_to_entries(&exits, &other_class, &p).is_empty());
+        let earlier = [end(1, 4.0, 0.0, 0.0, 0.0, 0.0, false)];
+        assert!(associate_exits_to_entries(&exits, &earlier, &p).is_empty());
+    }
+
+    #[test]
+    fn left_view_needs_long_term_and_gate_expands_with_gap() {
+        let mut p = ReidParams::default();
+        // swimmer leaves the view, comes back 60 s later 12 m away (no usable velocity)
+        let exits = [end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true)];
+        let entries = [end(1, 60.0, 12.0, 0.0, 0.0, 0.0, false)];
+        // gate = 0.1 * 60 * 5 = 30 m
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p),
+            vec![(0, 0)]
+        );
+        p.long_term = false;
+        assert!(associate_exits_to_entries(&exits, &entries, &p).is_empty());
+        // the same displacement after 2 s is beyond the gate
+        p.long_term = true;
+        let entries = [end(1, 2.0, 12.0, 0.0, 0.0, 0.0, false)];
+        assert!(associate_exits_to_entries(&exits, &entries, &p).is_empty());
+    }
+
+    proptest! {
+        #[test]
+        fn links_are_one_to_one_same_class_and_forward_in_time(
+            xs in prop::collection::vec((1u32..3, 0.0..100.0f64, -50.0..50.0f64, -50.0..50.0f64, any::<bool>()), 0..12),
+            ys in prop::collection::vec((1u32..3, 0.0..100.0f64, -50.0..50.0f64, -50.0..50.0f64), 0..12),
+        ) {
+            let exits: Vec<_> = xs.iter().map(|&(c, t, n, e, l)| end(c, t, n, e, 0.3, -0.2, l)).collect();
+            let entries: Vec<_> = ys.iter().map(|&(c, t, n, e)| end(c, t, n, e, 0.1, 0.0, false)).collect();
+            let links = associate_exits_to_entries(&exits, &entries, &ReidParams::default());
+            let mut si = std::collections::HashSet::new();
+            let mut sj = std::collections::HashSet::new();
+            for &(i, j) in &links {
+                prop_assert!(si.insert(i) && sj.insert(j));
+                prop_assert_eq!(exits[i].class_id, entries[j].class_id);
+                prop_assert!(entries[j].time_s > exits[i].time_s);
+            }
+            // deterministic
+            prop_assert_eq!(links, associate_exits_to_entries(&exits, &entries, &ReidParams::default()));
+        }
+    }
+}
