@@ -2,8 +2,9 @@
 
 Two sources, both deterministic given their seeds:
 
-* ``sim``: frames rendered by ``mgmot-sim render --scenario NAME --seed N --out DIR``
-  (PNG frames + a SeaDronesSee/COCO-style JSON). This is the intended source.
+* ``sim``: sequences rendered by ``mgmot-sim render -s NAME --seed N -o DIR``
+  (``img1/*.png`` + ``annotations.json``, SeaDronesSee-style COCO). This is
+  the intended source.
 * ``procedural``: a stand-in generator used only while mgmot-sim cannot render
   yet: a textured sea with small swimmer blobs and elongated boats. A model
   trained on it is provisional and labelled so in the model card.
@@ -31,6 +32,7 @@ CATEGORY_MAP = {
     "boat": 1,
     "jetski": 1,
 }
+# SeaDronesSee category ids (used by mgmot-sim) when a JSON has no category names.
 
 
 # ---------------------------------------------------------------- sim frames
@@ -57,7 +59,8 @@ def load_coco_dir(root: Path):
         for im, anns in per_image.values():
             path = (js.parent / im["file_name"]).resolve()
             if not path.exists():
-                cand = list(root.rglob(Path(im["file_name"]).name))
+                # Look only inside this JSON's folder: every sim sequence numbers its frames from 1.
+                cand = list(js.parent.rglob(Path(im["file_name"]).name))
                 if not cand:
                     continue
                 path = cand[0]

@@ -8,6 +8,7 @@
 #   MGMOT_TRAIN_SOURCE   sim | procedural                      [sim]
 #   MGMOT_TRAIN_MINUTES  wall-clock training budget             [45]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render      [5000]
+#   MGMOT_TRAIN_EVERY    keep every Nth rendered frame          [5]
 #   MGMOT_TRAIN_INSTALL  1 = copy models + metrics into models/ [0]
 # Seeds: training renders use seeds 1.., held-out renders 100001.. (disjoint),
 # procedural frames 0..FRAMES-1 for training and 1000000.. for held-out;
@@ -18,6 +19,7 @@ ROOT="$(cd "$HERE/.." && pwd)"
 SOURCE="${MGMOT_TRAIN_SOURCE:-sim}"
 MINUTES="${MGMOT_TRAIN_MINUTES:-45}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
+EVERY="${MGMOT_TRAIN_EVERY:-5}"   # keep every Nth frame of a sequence (decorrelated frames)
 RUN="$HERE/runs/$SOURCE"
 DATA="$HERE/data/sim"
 SCENARIOS=(calm_baseline high_altitude_tiny swimmer_group boats_crossing fast_drone gimbal_swings leave_and_return mixed_mission_soak)
@@ -41,13 +43,13 @@ if [[ "$SOURCE" == sim ]]; then
     while (( $(count_frames "$DATA/train") < FRAMES )); do
         for sc in "${SCENARIOS[@]}"; do
             out="$DATA/train/${sc}_s${seed}"
-            [[ -d "$out" ]] || "$SIM" render --scenario "$sc" --seed "$seed" --out "$out"
+            [[ -d "$out" ]] || "$SIM" render -s "$sc" --seed "$seed" -o "$out" --format png --every "$EVERY"
         done
         seed=$((seed + 1))
     done
     for sc in "${SCENARIOS[@]}"; do
         out="$DATA/heldout/${sc}_s100001"
-        [[ -d "$out" ]] || "$SIM" render --scenario "$sc" --seed 100001 --out "$out"
+        [[ -d "$out" ]] || "$SIM" render -s "$sc" --seed 100001 -o "$out" --format png --every "$EVERY"
     done
     TRAIN_ARGS=(--source sim --data "$DATA/train")
     CAL_ARGS=(--source sim --data "$DATA/train")

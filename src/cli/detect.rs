@@ -34,7 +34,8 @@ const COLOURS: [[u8; 3]; 6] = [
 /// Arguments of `mgmot detect`.
 #[derive(Debug, ClapArgs)]
 pub struct Args {
-    /// The ONNX detector (the shipped models/mgmot-det-int8.onnx, or a YOLOv8 / YOLO11 export).
+    /// The ONNX detector: models/mgmot-det-fp32.onnx (fastest on tract),
+    /// models/mgmot-det-int8.onnx (fastest on onnxruntime), or a YOLOv8 / YOLO11 export.
     #[arg(long)]
     model: PathBuf,
     /// An image file or a folder of images (png, jpg, bmp).

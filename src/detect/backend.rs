@@ -84,7 +84,9 @@ pub struct BackendConfig {
 }
 
 impl Default for BackendConfig {
-    /// tract: the only backend that works on a fresh machine with nothing installed.
+    /// tract: the only backend that works on a fresh machine with nothing
+    /// installed. Where ONNX Runtime is available it is the faster one (see the
+    /// benchmark table in `models/README.md`).
     fn default() -> Self {
         Self {
             kind: BackendKind::Tract,

@@ -93,7 +93,7 @@ mod tests {
 
     proptest! {
         #[test]
-        fn tiles_cover_the_frame_and_overlap(w in 1u32..5000, h in 1u32..3000, tile in 16u32..1024, overlap in 0u32..256) {
+        fn tiles_cover_the_frame_and_overlap(w in 1u32..5000, h in 1u32..3000, tile in 64u32..1024, overlap in 0u32..256) {
             let g = tile_grid(w, h, tile, overlap);
             let eff_overlap = overlap.min(tile - 1);
             for r in &g {
