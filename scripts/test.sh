@@ -22,6 +22,16 @@ if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pyma
 fi
 export PATH="$PWD/.venv/bin:$PATH"
 
+# ONNX Runtime (from the onnxruntime wheel on PyPI) for the tract/onnxruntime parity test.
+if [ -z "${ORT_DYLIB_PATH:-}" ]; then
+  if ORT_DYLIB_PATH="$(bash scripts/detect_fetch_onnxruntime.sh)"; then
+    export ORT_DYLIB_PATH
+  else
+    echo "test: could not fetch the onnxruntime wheel; the backend parity test will say it skipped" >&2
+    unset ORT_DYLIB_PATH
+  fi
+fi
+
 echo "== cargo fmt --check"
 cargo fmt --all --check
 echo "== cargo clippy"

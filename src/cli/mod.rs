@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod detect;
 mod eval;
 mod geolocate;
 mod track;
@@ -27,6 +28,8 @@ enum Command {
     Eval(eval::Args),
     /// Track the videos of a SeaDronesSee file and geolocate the tracks.
     Track(track::Args),
+    /// Detect swimmers and boats in images with an ONNX model.
+    Detect(detect::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -37,6 +40,7 @@ pub fn main() -> ExitCode {
         Command::Geolocate(args) => geolocate::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Track(args) => track::run(args),
+        Command::Detect(args) => detect::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,234 @@
+//! `mgmot detect`: run the detector over an image or a folder of images.
+//!
+//! Writes COCO results JSON (`[{image_id, category_id, bbox, score}]`, with
+//! `category_id = class index + 1`, which is SeaDronesSee's numbering for the
+//! shipped model's swimmer = 1, boat = 2) to stdout with `--json` and to
+//! `OUT/detections.json` with `--out`, where it also draws the boxes on a copy
+//! of each image.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use clap::Args as ClapArgs;
+use image::{Rgb, RgbImage};
+use imageproc::drawing::draw_hollow_rect_mut;
+use imageproc::rect::Rect;
+use mgmot::detect::{
+    BackendConfig, BackendKind, Detection, Detector, DetectorConfig, TilingConfig,
+};
+use serde::Serialize;
+
+/// Image file extensions picked up from a folder.
+const IMAGE_EXTENSIONS: [&str; 4] = ["png", "jpg", "jpeg", "bmp"];
+
+/// Box colours per class id (cycled): swimmer yellow, boat red, then others.
+const COLOURS: [[u8; 3]; 6] = [
+    [255, 220, 0],
+    [255, 40, 40],
+    [0, 200, 255],
+    [80, 255, 80],
+    [255, 0, 255],
+    [255, 255, 255],
+];
+
+/// Arguments of `mgmot detect`.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// The ONNX detector: models/mgmot-det-fp32.onnx (fastest on tract),
+    /// models/mgmot-det-int8.onnx (fastest on onnxruntime), or a YOLOv8 / YOLO11 export.
+    #[arg(long)]
+    model: PathBuf,
+    /// An image file or a folder of images (png, jpg, bmp).
+    input: PathBuf,
+    /// Inference engine: tract (pure Rust) or onnxruntime (needs --ort-lib or ORT_DYLIB_PATH).
+    #[arg(long, default_value = "tract", value_parser = parse_backend)]
+    backend: BackendKind,
+    /// Path of libonnxruntime.so for --backend onnxruntime (default: $ORT_DYLIB_PATH).
+    #[arg(long)]
+    ort_lib: Option<PathBuf>,
+    /// Print COCO results JSON on stdout instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Folder for detections.json and the images with their boxes drawn.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Minimum class score.
+    #[arg(long, default_value_t = 0.25)]
+    score: f32,
+    /// IoU threshold of the class-aware NMS.
+    #[arg(long, default_value_t = 0.5)]
+    nms_iou: f32,
+    /// IoU threshold of the larger-box-priority suppression (1 turns it off).
+    #[arg(long, default_value_t = 0.7)]
+    larger_box_iou: f32,
+    /// Split large frames into overlapping tiles at native resolution.
+    #[arg(long)]
+    tile: bool,
+    /// Tile side in pixels (default: the model's input size).
+    #[arg(long)]
+    tile_size: Option<u32>,
+    /// Overlap between tiles in pixels.
+    #[arg(long, default_value_t = 64)]
+    tile_overlap: u32,
+    /// Inference threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Comma-separated class names overriding the model's metadata.
+    #[arg(long, value_delimiter = ',')]
+    classes: Option<Vec<String>>,
+}
+
+fn parse_backend(s: &str) -> Result<BackendKind, String> {
+    s.parse()
+}
+
+/// One entry of COCO's results format.
+#[derive(Debug, Serialize)]
+struct CocoResult {
+    image_id: u64,
+    category_id: usize,
+    category_name: String,
+    bbox: [f32; 4],
+    score: f32,
+    file_name: String,
+}
+
+/// Runs `mgmot detect`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let images = list_images(&args.input)?;
+    let mut config = DetectorConfig::new(&args.model);
+    config.backend = BackendConfig {
+        kind: args.backend,
+        ort_dylib_path: args.ort_lib.clone(),
+    };
+    config.threads = args.threads;
+    config.score_threshold = args.score;
+    config.nms_iou = args.nms_iou;
+    config.larger_box_iou = (args.larger_box_iou < 1.0).then_some(args.larger_box_iou);
+    config.class_names = args.classes.clone();
+    config.tiling = args.tile.then_some(TilingConfig {
+        tile_px: args.tile_size,
+        overlap_px: args.tile_overlap,
+        include_full_frame: true,
+    });
+    let mut detector = Detector::load(config)?;
+    let names = detector.model().class_names.clone();
+    if let Some(out) = &args.out {
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("cannot create output folder {}", out.display()))?;
+    }
+
+    let mut results = Vec::new();
+    for (index, path) in images.iter().enumerate() {
+        let frame = image::open(path)
+            .with_context(|| format!("cannot read image {}", path.display()))?
+            .to_rgb8();
+        let (dets, t) = detector
+            .detect_timed(&frame)
+            .with_context(|| format!("detection failed on {}", path.display()))?;
+        tracing::info!(image = %path.display(), detections = dets.len(), pre_ms = t.preprocess.as_secs_f64() * 1e3, infer_ms = t.inference.as_secs_f64() * 1e3, post_ms = t.postprocess.as_secs_f64() * 1e3, "frame done");
+        let image_id = image_id(path, index);
+        let file_name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if !args.json {
+            println!("{}: {} detections", path.display(), dets.len());
+            for d in &dets {
+                println!(
+                    "  {:<10} {:.3}  x={:.1} y={:.1} w={:.1} h={:.1}",
+                    class_name(&names, d.class_id),
+                    d.score,
+                    d.bbox.x_px,
+                    d.bbox.y_px,
+                    d.bbox.w_px,
+                    d.bbox.h_px
+                );
+            }
+        }
+        if let Some(out) = &args.out {
+            let drawn = draw(frame, &dets);
+            let target = out.join(format!(
+                "{}.png",
+                path.file_stem()
+                    .map(|s| s.to_string_lossy())
+                    .unwrap_or_default()
+            ));
+            drawn
+                .save(&target)
+                .with_context(|| format!("cannot write {}", target.display()))?;
+        }
+        results.extend(dets.iter().map(|d| CocoResult {
+            image_id,
+            category_id: d.class_id + 1,
+            category_name: class_name(&names, d.class_id).to_string(),
+            bbox: [d.bbox.x_px, d.bbox.y_px, d.bbox.w_px, d.bbox.h_px],
+            score: d.score,
+            file_name: file_name.clone(),
+        }));
+    }
+    let json = serde_json::to_string_pretty(&results)?;
+    if args.json {
+        println!("{json}");
+    }
+    if let Some(out) = &args.out {
+        let target = out.join("detections.json");
+        std::fs::write(&target, json)
+            .with_context(|| format!("cannot write {}", target.display()))?;
+    }
+    Ok(())
+}
+
+fn class_name(names: &[String], id: usize) -> &str {
+    names.get(id).map(String::as_str).unwrap_or("?")
+}
+
+/// COCO image id: the file stem when it is a number (SeaDronesSee names frames
+/// `3464.jpg`), else the 1-based position in the sorted input list.
+fn image_id(path: &Path, index: usize) -> u64 {
+    path.file_stem()
+        .and_then(|s| s.to_str())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(index as u64 + 1)
+}
+
+fn list_images(input: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    if input.is_file() {
+        return Ok(vec![input.to_path_buf()]);
+    }
+    if !input.is_dir() {
+        bail!("input {}: no such file or folder", input.display());
+    }
+    let mut images: Vec<PathBuf> = std::fs::read_dir(input)
+        .with_context(|| format!("cannot list {}", input.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    images.sort();
+    if images.is_empty() {
+        bail!(
+            "input folder {} holds no png/jpg/bmp images",
+            input.display()
+        );
+    }
+    Ok(images)
+}
+
+/// Draws each detection as a 2-pixel rectangle in its class colour.
+fn draw(mut frame: RgbImage, dets: &[Detection]) -> RgbImage {
+    for d in dets {
+        let colour = Rgb(COLOURS[d.class_id % COLOURS.len()]);
+        for grow in 0..2i32 {
+            let x = d.bbox.x_px.round() as i32 - grow;
+            let y = d.bbox.y_px.round() as i32 - grow;
+            let w = (d.bbox.w_px.round() as i32 + 2 * grow).max(1) as u32;
+            let h = (d.bbox.h_px.round() as i32 + 2 * grow).max(1) as u32;
+            draw_hollow_rect_mut(&mut frame, Rect::at(x, y).of_size(w, h), colour);
+        }
+    }
+    frame
+}

@@ -1,0 +1,392 @@
+//! The detector: one ort session plus the pre- and postprocessing around it.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use image::RgbImage;
+use ort::session::builder::GraphOptimizationLevel;
+use ort::session::Session;
+use ort::value::{TensorRef, ValueType};
+use serde::{Deserialize, Serialize};
+
+use super::backend::{init_backend, BackendConfig, BackendKind};
+use super::model::{detect_layout, read_metadata, ModelInfo, OutputLayout};
+use super::postprocess::{class_aware_nms, decode, larger_box_priority_suppression};
+use super::preprocess::{Preprocessor, Region};
+use super::tiling::{tile_grid, TilingConfig};
+use super::{DetectError, Detection};
+
+/// Detector settings. The defaults suit the shipped model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectorConfig {
+    /// The ONNX model file.
+    pub model_path: PathBuf,
+    /// Which engine runs it.
+    pub backend: BackendConfig,
+    /// Intra-op threads (ONNX Runtime; tract runs on one thread).
+    pub threads: usize,
+    /// Candidates scoring below this are dropped before NMS.
+    pub score_threshold: f32,
+    /// IoU above which class-aware NMS drops the lower-scoring box.
+    pub nms_iou: f32,
+    /// IoU above which the paper's larger-box-priority suppression drops the
+    /// smaller box (class-agnostic); `None` turns it off.
+    pub larger_box_iou: Option<f32>,
+    /// At most this many detections per frame.
+    pub max_detections: usize,
+    /// Class names overriding the model's `names` metadata.
+    pub class_names: Option<Vec<String>>,
+    /// Overlapping tiles for large frames; `None` letterboxes the whole frame once.
+    pub tiling: Option<TilingConfig>,
+}
+
+impl DetectorConfig {
+    /// Defaults for a model file: tract, 2 threads, score 0.25, NMS IoU 0.5,
+    /// larger-box suppression at IoU 0.7, 300 detections, no tiling.
+    pub fn new(model_path: impl Into<PathBuf>) -> Self {
+        Self {
+            model_path: model_path.into(),
+            backend: BackendConfig::default(),
+            threads: 2,
+            score_threshold: 0.25,
+            nms_iou: 0.5,
+            larger_box_iou: Some(0.7),
+            max_detections: 300,
+            class_names: None,
+            tiling: None,
+        }
+    }
+
+    fn validate(&self) -> Result<(), DetectError> {
+        let unit = |name: &str, v: f32| {
+            if (0.0..=1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(DetectError::InvalidConfig(format!(
+                    "{name} must be in [0, 1], got {v}"
+                )))
+            }
+        };
+        unit("score_threshold", self.score_threshold)?;
+        unit("nms_iou", self.nms_iou)?;
+        if let Some(v) = self.larger_box_iou {
+            unit("larger_box_iou", v)?;
+        }
+        if self.threads == 0 {
+            return Err(DetectError::InvalidConfig(
+                "threads must be at least 1".into(),
+            ));
+        }
+        if let Some(t) = &self.tiling {
+            if t.tile_px == Some(0) {
+                return Err(DetectError::InvalidConfig(
+                    "tile size must be positive".into(),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where the time of one [`Detector::detect_timed`] call went.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DetectTimings {
+    /// Letterboxing (resize, pad, HWC -> CHW float).
+    pub preprocess: Duration,
+    /// The backend's `run`.
+    pub inference: Duration,
+    /// Decoding, NMS and larger-box suppression.
+    pub postprocess: Duration,
+}
+
+/// A loaded detector. Not `Sync`: run it on one thread (the pipeline's
+/// inference thread) or load one per thread.
+#[derive(Debug)]
+pub struct Detector {
+    session: Session,
+    info: ModelInfo,
+    config: DetectorConfig,
+    backend: BackendKind,
+    pre: Preprocessor,
+    /// Reused input buffer (3 x H x W floats).
+    tensor: Vec<f32>,
+}
+
+impl Detector {
+    /// Loads the model in `config.model_path` on `config.backend` (which
+    /// becomes the process's backend, see [`super::backend`]), checks its
+    /// input and output, and runs one warm-up inference.
+    pub fn load(config: DetectorConfig) -> Result<Self, DetectError> {
+        config.validate()?;
+        let path = config.model_path.clone();
+        let bytes = std::fs::read(&path).map_err(|source| DetectError::ModelRead {
+            path: path.clone(),
+            source,
+        })?;
+        let meta = read_metadata(&path, &bytes)?;
+        let env = init_backend(&config.backend)?;
+        let backend = config.backend.kind;
+        let load_err = |message: String| DetectError::SessionLoad {
+            path: path.clone(),
+            backend,
+            message,
+        };
+        let mut builder = Session::builder(env)
+            .map_err(|e| load_err(e.to_string()))?
+            .with_optimization_level(GraphOptimizationLevel::Level3)
+            .map_err(|e| load_err(e.to_string()))?
+            .with_intra_threads(config.threads)
+            .map_err(|e| load_err(e.to_string()))?;
+        let session = builder
+            .commit_from_memory(&bytes)
+            .map_err(|e| load_err(e.to_string()))?;
+
+        let (input_name, in_w, in_h) = check_input(&path, &session, meta.image_size_hw)?;
+        let output = session
+            .outputs()
+            .first()
+            .ok_or_else(|| DetectError::UnknownOutputLayout {
+                path: path.clone(),
+                name: String::new(),
+                problem: "the model has no outputs".into(),
+            })?;
+        let output_name = output.name().to_string();
+        let class_names = config.class_names.clone().or(meta.class_names);
+        let nc_hint = class_names.as_ref().map(Vec::len);
+        // The declared output shape may be dynamic: decide the layout on a
+        // warm-up run's real output, which also builds tract's plan up front.
+        let mut info = ModelInfo {
+            path: path.clone(),
+            input_name,
+            input_width_px: in_w,
+            input_height_px: in_h,
+            output_name,
+            layout: OutputLayout::ChannelsFirst,
+            num_candidates: 0,
+            class_names: Vec::new(),
+        };
+        let mut detector = Detector {
+            session,
+            info: info.clone(),
+            config,
+            backend,
+            pre: Preprocessor::new(),
+            tensor: vec![0.0; 3 * (in_w * in_h) as usize],
+        };
+        let dims = detector.run_raw(|dims, _| dims.to_vec())?;
+        let (layout, nc, n) =
+            detect_layout(&dims, nc_hint).map_err(|problem| DetectError::UnknownOutputLayout {
+                path: path.clone(),
+                name: detector.info.output_name.clone(),
+                problem,
+            })?;
+        info.layout = layout;
+        info.num_candidates = n;
+        info.class_names = match class_names {
+            Some(names) => names,
+            None => {
+                tracing::warn!(model = %path.display(), "no class names in the model metadata or config; using class0..class{}", nc.saturating_sub(1));
+                (0..nc).map(|i| format!("class{i}")).collect()
+            }
+        };
+        tracing::info!(model = %path.display(), %backend, input_w = in_w, input_h = in_h, classes = ?info.class_names, candidates = n, "detector loaded");
+        detector.info = info;
+        Ok(detector)
+    }
+
+    /// The model's interface (input size, classes, layout).
+    pub fn model(&self) -> &ModelInfo {
+        &self.info
+    }
+
+    /// The backend running this detector.
+    pub fn backend(&self) -> BackendKind {
+        self.backend
+    }
+
+    /// The settings this detector was loaded with.
+    pub fn config(&self) -> &DetectorConfig {
+        &self.config
+    }
+
+    /// Detects objects in one RGB frame; boxes are in the frame's pixels.
+    pub fn detect(&mut self, frame: &RgbImage) -> Result<Vec<Detection>, DetectError> {
+        self.detect_timed(frame).map(|(d, _)| d)
+    }
+
+    /// [`Detector::detect`] plus the time spent in each stage.
+    pub fn detect_timed(
+        &mut self,
+        frame: &RgbImage,
+    ) -> Result<(Vec<Detection>, DetectTimings), DetectError> {
+        let mut timings = DetectTimings::default();
+        let (fw, fh) = frame.dimensions();
+        if fw == 0 || fh == 0 {
+            return Ok((Vec::new(), timings));
+        }
+        let regions = match self.config.tiling {
+            None => vec![Region::full(fw, fh)],
+            Some(t) => {
+                let tile = t
+                    .tile_px
+                    .unwrap_or(self.info.input_width_px.min(self.info.input_height_px));
+                let mut r = tile_grid(fw, fh, tile, t.overlap_px);
+                if t.include_full_frame && r.len() > 1 {
+                    r.push(Region::full(fw, fh));
+                }
+                r
+            }
+        };
+        let mut candidates = Vec::new();
+        for region in regions {
+            let t0 = Instant::now();
+            let lb = self.pre.letterbox(
+                frame,
+                region,
+                self.info.input_width_px,
+                self.info.input_height_px,
+                &mut self.tensor,
+            );
+            let t1 = Instant::now();
+            timings.preprocess += t1 - t0;
+            let (layout, nc, n) = (
+                self.info.layout,
+                self.info.class_names.len(),
+                self.info.num_candidates,
+            );
+            let threshold = self.config.score_threshold;
+            let mut decode_time = Duration::ZERO;
+            let shape = self.run_raw(|dims, data| {
+                let td = Instant::now();
+                decode(
+                    data,
+                    layout,
+                    nc,
+                    n,
+                    &lb,
+                    fw as f32,
+                    fh as f32,
+                    threshold,
+                    &mut candidates,
+                );
+                decode_time = td.elapsed();
+                dims.to_vec()
+            })?;
+            let expected = match layout {
+                OutputLayout::ChannelsFirst => [1, (4 + nc) as i64, n as i64],
+                OutputLayout::ChannelsLast => [1, n as i64, (4 + nc) as i64],
+            };
+            if shape != expected {
+                return Err(DetectError::UnknownOutputLayout {
+                    path: self.info.path.clone(),
+                    name: self.info.output_name.clone(),
+                    problem: format!("shape changed from {expected:?} to {shape:?} between runs"),
+                });
+            }
+            timings.inference += t1.elapsed().saturating_sub(decode_time);
+            timings.postprocess += decode_time;
+        }
+        let t2 = Instant::now();
+        let mut dets = class_aware_nms(candidates, self.config.nms_iou, usize::MAX);
+        if let Some(iou) = self.config.larger_box_iou {
+            dets = larger_box_priority_suppression(dets, iou);
+        }
+        dets.truncate(self.config.max_detections);
+        timings.postprocess += t2.elapsed();
+        Ok((dets, timings))
+    }
+
+    /// Runs the session on the current input tensor and hands the first
+    /// output's shape and data to `f`.
+    fn run_raw<R>(&mut self, f: impl FnOnce(&[i64], &[f32]) -> R) -> Result<R, DetectError> {
+        let (w, h) = (
+            self.info.input_width_px as usize,
+            self.info.input_height_px as usize,
+        );
+        let path = &self.info.path;
+        let backend = self.backend;
+        let err = |e: ort::Error| DetectError::Inference {
+            path: path.clone(),
+            backend,
+            message: e.to_string(),
+        };
+        let input =
+            TensorRef::from_array_view(([1usize, 3, h, w], &self.tensor[..])).map_err(err)?;
+        let outputs = self
+            .session
+            .run(ort::inputs![self.info.input_name.as_str() => input])
+            .map_err(err)?;
+        let value = &outputs[0];
+        let (shape, data) =
+            value
+                .try_extract_tensor::<f32>()
+                .map_err(|e| DetectError::UnknownOutputLayout {
+                    path: path.clone(),
+                    name: self.info.output_name.clone(),
+                    problem: format!("not a float32 tensor ({e})"),
+                })?;
+        Ok(f(shape, data))
+    }
+}
+
+/// Checks the single image input: float32, rank 4, (1, 3, H, W); returns its
+/// name and `(W, H)`, taking dynamic sizes from `imgsz` metadata.
+fn check_input(
+    path: &Path,
+    session: &Session,
+    image_size_hw: Option<(u32, u32)>,
+) -> Result<(String, u32, u32), DetectError> {
+    let inputs = session.inputs();
+    let first = inputs.first().ok_or_else(|| DetectError::BadInput {
+        path: path.to_path_buf(),
+        name: String::new(),
+        problem: "the model has no inputs".into(),
+    })?;
+    let name = first.name().to_string();
+    let bad = |problem: String| DetectError::BadInput {
+        path: path.to_path_buf(),
+        name: name.clone(),
+        problem,
+    };
+    if inputs.len() != 1 {
+        return Err(bad(format!(
+            "expected one image input, the model has {}",
+            inputs.len()
+        )));
+    }
+    let ValueType::Tensor { ty, shape, .. } = first.dtype() else {
+        return Err(bad(format!("not a tensor: {:?}", first.dtype())));
+    };
+    if *ty != ort::value::TensorElementType::Float32 {
+        return Err(bad(format!("element type is {ty:?}, expected float32")));
+    }
+    let dims: &[i64] = shape;
+    let [b, c, h, w] = dims else {
+        return Err(bad(format!(
+            "rank {} (shape {dims:?}), expected rank 4 (1, 3, H, W)",
+            dims.len()
+        )));
+    };
+    if *b != 1 && *b != -1 {
+        return Err(bad(format!("batch dimension is {b}, expected 1")));
+    }
+    if *c != 3 {
+        return Err(bad(format!(
+            "{c} channels (shape {dims:?}), expected 3 (RGB)"
+        )));
+    }
+    let (h, w) = match (*h, *w) {
+        (h, w) if h > 0 && w > 0 => (h as u32, w as u32),
+        _ => image_size_hw.ok_or_else(|| {
+            bad(format!(
+                "dynamic input size {dims:?} and no `imgsz` metadata to fix it"
+            ))
+        })?,
+    };
+    if w < 32 || h < 32 || w > 8192 || h > 8192 {
+        return Err(bad(format!(
+            "input size {w}x{h} is outside 32..8192 pixels"
+        )));
+    }
+    Ok((name, w, h))
+}

@@ -1,0 +1,142 @@
+"""mAP50 of ONNX detectors on held-out frames, through onnxruntime.
+
+Postprocessing mirrors src/detect (letterbox, score threshold, class-aware
+NMS); AP is the all-point interpolated area under the precision/recall curve
+per class (VOC 2010+ / COCO-style at IoU 0.5), averaged over classes that have
+ground truth.
+
+Usage: python evaluate.py --models fp32.onnx int8.onnx --source sim --data DIR --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+
+import data
+
+SCORE_THRESHOLD = 0.001
+NMS_IOU = 0.6
+MAX_DET = 300
+
+
+def iou_one_to_many(b, bs):
+    ix1, iy1 = np.maximum(b[0], bs[:, 0]), np.maximum(b[1], bs[:, 1])
+    ix2, iy2 = np.minimum(b[2], bs[:, 2]), np.minimum(b[3], bs[:, 3])
+    inter = np.clip(ix2 - ix1, 0, None) * np.clip(iy2 - iy1, 0, None)
+    a = (b[2] - b[0]) * (b[3] - b[1])
+    a2 = (bs[:, 2] - bs[:, 0]) * (bs[:, 3] - bs[:, 1])
+    return inter / np.maximum(a + a2 - inter, 1e-9)
+
+
+def postprocess(out, scale, px, py):
+    """(4+nc, N) YOLOv8 output -> (boxes x1y1x2y2 in frame pixels, scores, classes)."""
+    boxes_c, scores_all = out[:4].T, out[4:].T
+    cls = scores_all.argmax(1)
+    score = scores_all[np.arange(len(cls)), cls]
+    keep = score > SCORE_THRESHOLD
+    b, s, c = boxes_c[keep], score[keep], cls[keep]
+    xyxy = np.stack([b[:, 0] - b[:, 2] / 2, b[:, 1] - b[:, 3] / 2, b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3] / 2], 1)
+    xyxy = (xyxy - np.array([px, py, px, py], np.float32)) / scale
+    order = np.argsort(-s, kind="stable")
+    kept = []
+    suppressed = np.zeros(len(order), bool)
+    for i_pos, i in enumerate(order):
+        if suppressed[i_pos]:
+            continue
+        kept.append(i)
+        if len(kept) >= MAX_DET:
+            break
+        rest = order[i_pos + 1 :]
+        same = c[rest] == c[i]
+        ious = iou_one_to_many(xyxy[i], xyxy[rest])
+        suppressed[i_pos + 1 :] |= same & (ious > NMS_IOU)
+    kept = np.asarray(kept, int)
+    return xyxy[kept], s[kept], c[kept]
+
+
+def average_precision(recall, precision):
+    mrec = np.concatenate([[0.0], recall, [1.0]])
+    mpre = np.concatenate([[1.0], precision, [0.0]])
+    mpre = np.flip(np.maximum.accumulate(np.flip(mpre)))
+    i = np.where(mrec[1:] != mrec[:-1])[0]
+    return float(np.sum((mrec[i + 1] - mrec[i]) * mpre[i + 1]))
+
+
+def map50(preds, gts, nc):
+    aps = {}
+    for k in range(nc):
+        n_gt = sum(int((g[1] == k).sum()) for g in gts)
+        if n_gt == 0:
+            continue
+        recs = []
+        for img_i, (pb, ps, pc) in enumerate(preds):
+            gb = gts[img_i][0][gts[img_i][1] == k]
+            used = np.zeros(len(gb), bool)
+            m = pc == k
+            for b, s in sorted(zip(pb[m], ps[m]), key=lambda t: -t[1]):
+                tp = 0
+                if len(gb):
+                    ious = iou_one_to_many(b, gb)
+                    j = int(np.argmax(ious))
+                    if ious[j] >= 0.5 and not used[j]:
+                        used[j] = True
+                        tp = 1
+                recs.append((s, tp))
+        recs.sort(key=lambda t: -t[0])
+        tps = np.array([t for _, t in recs], float)
+        ctp = np.cumsum(tps)
+        cfp = np.cumsum(1 - tps)
+        recall = ctp / n_gt if len(tps) else np.zeros(0)
+        precision = ctp / np.maximum(ctp + cfp, 1e-9) if len(tps) else np.zeros(0)
+        aps[k] = average_precision(recall, precision)
+    return float(np.mean(list(aps.values()))) if aps else 0.0, aps
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--models", nargs="+", required=True)
+    ap.add_argument("--source", choices=["sim", "procedural"], default="sim")
+    ap.add_argument("--data")
+    ap.add_argument("--seed-base", type=int, default=1_000_000)
+    ap.add_argument("--count", type=int, default=300)
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    if args.source == "sim":
+        frames = [(data.read_image(p), b, c) for p, b, c in data.load_coco_dir(Path(args.data))[: args.count]]
+    else:
+        frames = [data.procedural_frame(s) for s in range(args.seed_base, args.seed_base + args.count)]
+    gts = [(b, c) for _, b, c in frames]
+    report = {"frames": len(frames), "source": args.source, "models": {}}
+    for path in args.models:
+        so = ort.SessionOptions()
+        so.intra_op_num_threads = 2
+        sess = ort.InferenceSession(path, so, providers=["CPUExecutionProvider"])
+        inp = sess.get_inputs()[0]
+        size = inp.shape[2]
+        names = data.class_names()
+        preds = []
+        t0 = time.time()
+        for img, _, _ in frames:
+            lb, scale, px, py = data.letterbox(img, size)
+            out = sess.run(None, {inp.name: data.to_tensor_chw(lb)[None]})[0][0]
+            preds.append(postprocess(out, scale, px, py))
+        dt = time.time() - t0
+        m, aps = map50(preds, gts, len(names))
+        report["models"][Path(path).name] = {
+            "map50": round(m, 4),
+            "ap50_per_class": {names[k]: round(v, 4) for k, v in aps.items()},
+            "ms_per_frame_python_ort": round(1000 * dt / max(1, len(frames)), 2),
+        }
+        print(f"{path}: mAP50 = {m:.4f} {({names[k]: round(v, 4) for k, v in aps.items()})}", flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=2))
+
+
+if __name__ == "__main__":
+    main()

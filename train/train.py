@@ -1,0 +1,239 @@
+"""Train TinyDet on labelled frames (see data.py), time-bounded and seeded.
+
+Usage: python train.py --source sim --data DIR --out ckpt.pt [--minutes 45]
+       python train.py --source procedural --frames 3000 --out ckpt.pt
+
+Assignment is FCOS-style centre sampling per pyramid level (a ground-truth box
+goes to the levels whose size range holds its longest side; cells near its
+centre are positives, the smallest box wins a shared cell). Losses: GIoU on the
+decoded boxes of positives and BCE on class logits with an IoU-aware soft
+target, normalised by the number of positives.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import random
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+import data
+from model import STRIDES, TinyDet, distances, grid_centres
+
+# Longest-side range (pixels) of the boxes each level is responsible for.
+LEVEL_RANGES = ((0.0, 64.0), (48.0, 160.0), (128.0, 1e9))
+
+
+def seed_everything(seed: int) -> None:
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
+def random_crop(img, boxes, classes, size, rng):
+    """Random scale jitter and a size x size crop (tiling-like view), or a full letterboxed frame."""
+    h, w = img.shape[:2]
+    if rng.random() < 0.25 or (h <= size and w <= size):
+        out, s, px, py = data.letterbox(img, size)
+        b = boxes * s + np.array([px, py, px, py], np.float32)
+        return out, b, classes
+    s = rng.uniform(0.5, 1.0) if min(h, w) * 0.5 >= size else 1.0
+    if s != 1.0:
+        from PIL import Image
+
+        img = np.asarray(Image.fromarray(img).resize((max(size, round(w * s)), max(size, round(h * s))), Image.BILINEAR))
+        sx, sy = img.shape[1] / w, img.shape[0] / h
+        boxes = boxes * np.array([sx, sy, sx, sy], np.float32)
+    h, w = img.shape[:2]
+    x0 = rng.integers(0, max(1, w - size + 1))
+    y0 = rng.integers(0, max(1, h - size + 1))
+    crop = np.full((size, size, 3), 114, np.uint8)
+    part = img[y0 : y0 + size, x0 : x0 + size]
+    crop[: part.shape[0], : part.shape[1]] = part
+    b = boxes - np.array([x0, y0, x0, y0], np.float32)
+    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    bc = np.clip(b, 0, size)
+    area_c = (bc[:, 2] - bc[:, 0]) * (bc[:, 3] - bc[:, 1])
+    keep = (area_c > 0.5 * np.maximum(area, 1e-6)) & ((bc[:, 2] - bc[:, 0]) >= 2) & ((bc[:, 3] - bc[:, 1]) >= 2)
+    return crop, bc[keep], classes[keep]
+
+
+def augment(img, boxes, rng):
+    if rng.random() < 0.5:
+        img = img[:, ::-1]
+        w = img.shape[1]
+        boxes = boxes.copy()
+        boxes[:, [0, 2]] = w - boxes[:, [2, 0]]
+    if rng.random() < 0.5:
+        img = img[::-1]
+        h = img.shape[0]
+        boxes = boxes.copy()
+        boxes[:, [1, 3]] = h - boxes[:, [3, 1]]
+    gain = rng.uniform(0.75, 1.25)
+    img = np.clip(img.astype(np.float32) * gain + rng.uniform(-15, 15), 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(img), boxes
+
+
+def giou(a, b):
+    """GIoU of matching rows of (n, 4) x1y1x2y2 boxes; also returns IoU."""
+    ix1, iy1 = torch.max(a[:, 0], b[:, 0]), torch.max(a[:, 1], b[:, 1])
+    ix2, iy2 = torch.min(a[:, 2], b[:, 2]), torch.min(a[:, 3], b[:, 3])
+    inter = (ix2 - ix1).clamp(min=0) * (iy2 - iy1).clamp(min=0)
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a + area_b - inter + 1e-7
+    iou = inter / union
+    cx1, cy1 = torch.min(a[:, 0], b[:, 0]), torch.min(a[:, 1], b[:, 1])
+    cx2, cy2 = torch.max(a[:, 2], b[:, 2]), torch.max(a[:, 3], b[:, 3])
+    hull = (cx2 - cx1) * (cy2 - cy1) + 1e-7
+    return iou - (hull - union) / hull, iou
+
+
+def assign(gt_boxes, h, w, stride, level, device):
+    """Index of the assigned ground truth per cell (-1 = background) for one image and level."""
+    gx, gy = grid_centres(h, w, stride, device)
+    gx, gy = gx.flatten(), gy.flatten()
+    idx = torch.full((h * w,), -1, dtype=torch.long, device=device)
+    if len(gt_boxes) == 0:
+        return idx
+    lo, hi = LEVEL_RANGES[level]
+    bw, bh = gt_boxes[:, 2] - gt_boxes[:, 0], gt_boxes[:, 3] - gt_boxes[:, 1]
+    side = torch.max(bw, bh)
+    cx, cy = (gt_boxes[:, 0] + gt_boxes[:, 2]) / 2, (gt_boxes[:, 1] + gt_boxes[:, 3]) / 2
+    dx = (gx[:, None] - cx[None]).abs()
+    dy = (gy[:, None] - cy[None]).abs()
+    rx = torch.clamp(bw / 2, min=stride * 1.0).clamp(max=2.5 * stride)
+    ry = torch.clamp(bh / 2, min=stride * 1.0).clamp(max=2.5 * stride)
+    ok = (dx < rx[None]) & (dy < ry[None]) & ((side >= lo) & (side < hi))[None]
+    area = (bw * bh)[None].expand_as(ok)
+    cost = torch.where(ok, area, torch.full_like(area, float("inf")))
+    best, arg = cost.min(1)
+    idx[torch.isfinite(best)] = arg[torch.isfinite(best)]
+    return idx
+
+
+def compute_loss(outs, targets, nc):
+    device = outs[0][0].device
+    cls_loss = torch.zeros((), device=device)
+    box_loss = torch.zeros((), device=device)
+    npos = 0
+    for level, ((box_raw, cls_raw), stride) in enumerate(zip(outs, STRIDES)):
+        b, _, h, w = box_raw.shape
+        gx, gy = grid_centres(h, w, stride, device)
+        gx, gy = gx.flatten(), gy.flatten()
+        d = distances(box_raw, stride).flatten(2)  # (B, 4, HW)
+        pred = torch.stack([gx - d[:, 0], gy - d[:, 1], gx + d[:, 2], gy + d[:, 3]], 2)  # (B, HW, 4)
+        logits = cls_raw.flatten(2).transpose(1, 2)  # (B, HW, nc)
+        target = torch.zeros_like(logits)
+        for i, (gtb, gtc) in enumerate(targets):
+            idx = assign(gtb, h, w, stride, level, device)
+            pos = idx >= 0
+            n = int(pos.sum())
+            if n == 0:
+                continue
+            g, io = giou(pred[i][pos], gtb[idx[pos]])
+            box_loss = box_loss + (1.0 - g).sum()
+            target[i, pos.nonzero().squeeze(1), gtc[idx[pos]]] = io.detach().clamp(min=0.3)
+            npos += n
+        cls_loss = cls_loss + F.binary_cross_entropy_with_logits(logits, target, reduction="sum")
+    n = max(npos, 1)
+    return cls_loss / n, box_loss / n
+
+
+def load_samples(args):
+    if args.source == "sim":
+        return data.load_coco_dir(Path(args.data))
+    return [("procedural", seed) for seed in range(args.seed_base, args.seed_base + args.frames)]
+
+
+def get_frame(sample):
+    if sample[0] == "procedural":
+        return data.procedural_frame(sample[1])
+    path, boxes, classes = sample
+    return data.read_image(path), boxes.copy(), classes.copy()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--source", choices=["sim", "procedural"], default="sim")
+    ap.add_argument("--data", help="directory of rendered sim frames (source=sim)")
+    ap.add_argument("--frames", type=int, default=3000, help="procedural frames (source=procedural)")
+    ap.add_argument("--seed-base", type=int, default=0)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--crop", type=int, default=256)
+    ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--minutes", type=float, default=45.0)
+    ap.add_argument("--max-steps", type=int, default=100000)
+    ap.add_argument("--lr", type=float, default=3e-3)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--init", help="start from this checkpoint (continue training)")
+    args = ap.parse_args()
+
+    seed_everything(args.seed)
+    torch.set_num_threads(args.threads)
+    samples = load_samples(args)
+    if not samples:
+        raise SystemExit(f"no labelled frames found (source={args.source}, data={args.data})")
+    print(f"{len(samples)} training frames", flush=True)
+    # Decoded frames are cached in memory (uint8) so that each is rendered / read once.
+    cache: dict[int, tuple] = {}
+    model = TinyDet()
+    if args.init:
+        model.load_state_dict(torch.load(args.init, map_location="cpu")["model"])
+        print(f"initialised from {args.init}", flush=True)
+    nparams = sum(p.numel() for p in model.parameters())
+    print(f"TinyDet: {nparams} parameters", flush=True)
+    opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=5e-4)
+    rng = np.random.default_rng(args.seed)
+    budget_s = args.minutes * 60.0
+    t0 = time.time()
+    step = 0
+    log = []
+    model.train()
+    while step < args.max_steps:
+        elapsed = time.time() - t0
+        if elapsed > budget_s:
+            break
+        # Cosine learning rate over the time budget (warm-up over the first 3 %).
+        frac = min(1.0, elapsed / budget_s)
+        lr = args.lr * (min(1.0, frac / 0.03) if frac < 0.03 else 0.5 * (1 + math.cos(math.pi * frac)))
+        lr = max(lr, args.lr * 0.02)
+        for g in opt.param_groups:
+            g["lr"] = lr
+        imgs, targets = [], []
+        for _ in range(args.batch):
+            k = int(rng.integers(0, len(samples)))
+            if k not in cache:
+                cache[k] = get_frame(samples[k])
+            img, boxes, classes = cache[k]
+            img, boxes, classes = random_crop(img, boxes, classes, args.crop, rng)
+            img, boxes = augment(img, boxes, rng)
+            imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
+            targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
+        x = torch.stack(imgs)
+        outs = model(x)
+        lc, lb = compute_loss(outs, targets, model.nc)
+        loss = lc + 5.0 * lb
+        opt.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 10.0)
+        opt.step()
+        step += 1
+        if step % 20 == 0:
+            print(f"step {step} t={elapsed:.0f}s lr={lr:.5f} cls={lc.item():.4f} box={lb.item():.4f}", flush=True)
+            log.append({"step": step, "t_s": round(elapsed, 1), "cls": lc.item(), "box": lb.item()})
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    torch.save({"model": model.state_dict(), "args": vars(args), "steps": step, "params": nparams}, args.out)
+    Path(args.out).with_suffix(".log.json").write_text(json.dumps({"steps": step, "seconds": time.time() - t0, "log": log}, indent=1))
+    print(f"saved {args.out} after {step} steps", flush=True)
+
+
+if __name__ == "__main__":
+    main()
