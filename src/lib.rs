@@ -13,4 +13,5 @@
 pub mod eval;
 pub mod formats;
 pub mod geo;
+pub mod mavlink;
 pub mod track;
