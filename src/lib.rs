@@ -14,4 +14,5 @@ pub mod eval;
 pub mod formats;
 pub mod geo;
 pub mod mavlink;
+pub mod telemetry;
 pub mod track;
