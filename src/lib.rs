@@ -10,6 +10,7 @@
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 #![warn(missing_docs)]
 
+pub mod config;
 pub mod eval;
 pub mod formats;
 pub mod geo;

@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod check_config;
 mod eval;
 mod geolocate;
 mod track;
@@ -27,6 +28,8 @@ enum Command {
     Eval(eval::Args),
     /// Track the videos of a SeaDronesSee file and geolocate the tracks.
     Track(track::Args),
+    /// Check a runtime configuration file.
+    CheckConfig(check_config::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -37,6 +40,7 @@ pub fn main() -> ExitCode {
         Command::Geolocate(args) => geolocate::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Track(args) => track::run(args),
+        Command::CheckConfig(args) => check_config::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
