@@ -10,10 +10,12 @@
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 #![warn(missing_docs)]
 
+pub mod camera;
 pub mod config;
 pub mod eval;
 pub mod formats;
 pub mod geo;
 pub mod mavlink;
+pub mod pipeline;
 pub mod telemetry;
 pub mod track;
