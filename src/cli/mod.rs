@@ -7,6 +7,7 @@ use std::process::ExitCode;
 mod check_config;
 mod eval;
 mod geolocate;
+mod run;
 mod track;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
@@ -30,6 +31,8 @@ enum Command {
     Track(track::Args),
     /// Check a runtime configuration file.
     CheckConfig(check_config::Args),
+    /// Run the onboard pipeline (MAVLink, frames, detector, tracker, track messages).
+    Run(run::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -41,6 +44,7 @@ pub fn main() -> ExitCode {
         Command::Eval(args) => eval::run(args),
         Command::Track(args) => track::run(args),
         Command::CheckConfig(args) => check_config::run(args),
+        Command::Run(args) => run::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,13 +1,15 @@
 //! Wiring of the onboard runtime: capture -> newest-frame slot -> inference (detector, pose,
 //! tracker) -> MAVLink outputs, with one shutdown signal for all stages.
 //!
-//! Status: the building blocks (slot, shutdown, detector trait and its replay stand-in) are
-//! here; the `pipeline::run` that wires them to the MAVLink link is not written yet.
+//! Status: frame source = the simulator's socket only; detector = the replay stand-in; no
+//! operator-selected tracking (CAMERA_TRACKING_*) and no latency histograms yet.
 
 mod detector;
+mod run;
 mod shutdown;
 mod slot;
 
 pub use detector::{Detector, DetectorError, ReplayDetector};
+pub use run::{run, PipelineError, RunStats};
 pub use shutdown::{shutdown_signal, Shutdown, Trigger};
 pub use slot::{newest_slot, SlotReader, SlotWriter, Taken};
