@@ -37,10 +37,13 @@ def fmt(v):
     return repr(float(v)) if not float(v).is_integer() else str(int(v))
 
 
-def random_sequence(rng):
-    """Returns (gt_rows, pred_rows); rows are [frame, id, x, y, w, h, conf, class]."""
+def random_sequence(rng, twins=True, max_frames=40, max_objects=8):
+    """Returns (n_frames, gt_rows, pred_rows); rows are [frame, id, x, y, w, h, conf, class].
+
+    With `twins`, some cases get two objects moving exactly alike, so that the
+    assignment has several optima and TrackEval's tie-breaking decides."""
     kind = rng.choices(["normal", "gt_empty", "pred_empty", "both_empty"], [16, 2, 2, 1])[0]
-    n_frames = rng.randint(1, 40)
+    n_frames = rng.randint(1, max_frames)
     integer_boxes = rng.random() < 0.5
     noise = rng.choice([0.0, 0.02, 0.1, 0.25])
     p_detect = rng.uniform(0.5, 1.0)
@@ -49,7 +52,7 @@ def random_sequence(rng):
     fp_id = 5000
     empty_frames = {f for f in range(1, n_frames + 1) if rng.random() < 0.1}
     objects = []
-    for obj in range(rng.randint(0, 8)):
+    for obj in range(rng.randint(0, max_objects)):
         start = rng.randint(1, n_frames)
         end = rng.randint(start, n_frames)
         objects.append({
@@ -62,6 +65,12 @@ def random_sequence(rng):
             "ignored": rng.random() < 0.1,
             "pred_id": None,
         })
+    # Twins: an object that moves exactly like another one, so that IoUs and
+    # assignment scores tie and the solver's tie-breaking is exercised.
+    if twins and len(objects) >= 2 and rng.random() < 0.3:
+        a, b = rng.sample(objects, 2)
+        for k in ("start", "end", "x", "y", "w", "h", "vx", "vy"):
+            b[k] = a[k]
     # Ensure gt ids are unique.
     seen = set()
     for o in objects:
@@ -268,6 +277,8 @@ def main():
     ap.add_argument("--mgmot", required=True, help="path of the mgmot binary")
     ap.add_argument("--cases", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--max-frames", type=int, default=40, help="frames per sequence at most")
+    ap.add_argument("--max-objects", type=int, default=8, help="ground-truth objects per sequence at most")
     ap.add_argument("--fixtures", help="write the first --keep-fixtures cases here, with TrackEval's results")
     ap.add_argument("--keep-fixtures", type=int, default=0)
     args = ap.parse_args()
@@ -277,7 +288,8 @@ def main():
     worst = [0.0]
     failures = 0
     for case in range(args.cases):
-        sequences = {"seq%02d" % i: random_sequence(rng) for i in range(rng.randint(1, 4))}
+        sequences = {"seq%02d" % i: random_sequence(rng, True, args.max_frames, args.max_objects)
+                     for i in range(rng.randint(1, 4))}
         per_class = case % 2 == 0
         with tempfile.TemporaryDirectory() as work:
             expected, expected_pc = trackeval_expected(te, work, sequences, per_class)

@@ -10,6 +10,18 @@ if [ ! -d ../shared/data/seadronessee ]; then
   exit 1
 fi
 
+# Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv.
+if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink" 2>/dev/null; then
+  echo "== python venv for the cross-checks (.venv)"
+  if ! python3 -m venv .venv 2>/dev/null; then
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq python3-venv >/dev/null
+    python3 -m venv .venv
+  fi
+  .venv/bin/python3 -m pip install -q --disable-pip-version-check -r scripts/requirements-test.txt
+fi
+export PATH="$PWD/.venv/bin:$PATH"
+
 echo "== cargo fmt --check"
 cargo fmt --all --check
 echo "== cargo clippy"

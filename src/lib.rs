@@ -15,6 +15,7 @@ pub mod config;
 pub mod eval;
 pub mod formats;
 pub mod geo;
+pub mod logging;
 pub mod mavlink;
 pub mod pipeline;
 pub mod telemetry;

@@ -40,6 +40,9 @@ fn tracks_real_detections_in_both_modes() {
             &data("val_subset_detections.json"),
             "--mode",
             mode,
+            // SeaDronesSee's DJI metadata log lags the video by about 1 s.
+            "--metadata-lag-s",
+            "1.0",
             "--out",
             out_dir,
             "--json",

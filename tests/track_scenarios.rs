@@ -4,7 +4,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, Tracker, TrackerParams, WorldObservation,
+    track_sequence, BBox, Detection, FrameInput, TrackState, Tracker, TrackerParams,
+    WorldObservation,
 };
 use nalgebra::{Matrix2, Matrix3, Vector2};
 use proptest::prelude::*;
@@ -427,6 +428,29 @@ fn world_state_estimates_velocity() {
 }
 
 #[test]
+fn live_tracks_report_lost_state_with_predicted_world() {
+    let mut s = swimmer(0.0, 0.0, 0.0, 1.0);
+    s.missed = 60..1000;
+    let scene = Scene {
+        objects: vec![s],
+        camera: static_camera,
+        with_world: true,
+    };
+    let (frames, _) = scene.frames(90);
+    let mut tracker = Tracker::new(TrackerParams::default()).unwrap();
+    for f in &frames {
+        tracker.step(f).unwrap();
+    }
+    let live: Vec<_> = tracker.live_tracks().collect();
+    assert_eq!(live.len(), 1);
+    assert_eq!(live[0].state, TrackState::Lost);
+    assert!(live[0].detection_index.is_none());
+    // last seen at frame 59, predicted to frame 89 at 1 m/s east
+    let w = live[0].world.unwrap();
+    assert!((w.pos_ne_m.y - 89.0 / FPS).abs() < 0.2, "{w:?}");
+}
+
+#[test]
 fn out_of_order_frames_are_rejected() {
     let mut tracker = Tracker::new(TrackerParams::default()).unwrap();
     let f = |i: u64| FrameInput {
@@ -510,5 +534,79 @@ proptest! {
             prop_assert_eq!(ids.len(), f.tracks.len());
         }
         prop_assert_eq!(off, track_sequence(&frames, &params).unwrap());
+    }
+}
+
+fn wild_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        8 => -100.0..1100.0f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(-1e300),
+        1 => Just(0.0),
+    ]
+}
+
+fn wild_detection() -> impl Strategy<Value = Detection> {
+    (
+        (wild_f64(), wild_f64(), wild_f64(), wild_f64()),
+        prop_oneof![8 => 0.0..1.0f32, 1 => Just(f32::NAN), 1 => Just(5.0f32)],
+        0u32..4,
+        proptest::option::of((wild_f64(), wild_f64(), wild_f64())),
+    )
+        .prop_map(|((x, y, w, h), score, class_id, world)| Detection {
+            bbox: BBox::new(x, y, w, h),
+            score,
+            class_id,
+            world: world.map(|(n, e, v)| WorldObservation {
+                pos_ne_m: Vector2::new(n, e),
+                cov_ne_m2: Matrix2::identity() * v,
+            }),
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Garbage in (NaN, infinities, empty boxes, singular homographies, negative
+    /// covariances): the tracker neither panics nor errors on ordered frames, and ids stay
+    /// unique in every frame of both modes.
+    #[test]
+    fn arbitrary_input_never_panics(
+        frames in prop::collection::vec(
+            (
+                prop::collection::vec(wild_detection(), 0..12),
+                proptest::option::of(prop::array::uniform9(wild_f64())),
+                1u64..40,
+            ),
+            1..25,
+        )
+    ) {
+        let mut index = 0;
+        let inputs: Vec<FrameInput> = frames
+            .into_iter()
+            .map(|(detections, h, gap)| {
+                index += gap;
+                FrameInput {
+                    frame_index: index,
+                    time_s: index as f64 / FPS,
+                    image_size_px: IMAGE,
+                    detections,
+                    image_motion: h.map(|m| Matrix3::from_row_slice(&m)),
+                }
+            })
+            .collect();
+        let mut tracker = Tracker::new(TrackerParams::default()).unwrap();
+        for f in &inputs {
+            let out = tracker.step(f).unwrap();
+            let ids: BTreeSet<u64> = out.tracks.iter().map(|t| t.id).collect();
+            prop_assert_eq!(ids.len(), out.tracks.len());
+        }
+        tracker.finish();
+        let off = track_sequence(&inputs, &TrackerParams::default()).unwrap();
+        for f in &off.frames {
+            let ids: BTreeSet<u64> = f.tracks.iter().map(|t| t.id).collect();
+            prop_assert_eq!(ids.len(), f.tracks.len());
+        }
     }
 }

@@ -1,4 +1,7 @@
-//! `mgmot-sim`: simulated autopilot and maritime frame generator (work in progress).
-fn main() {
-    println!("mgmot-sim");
+//! `mgmot-sim`: simulated autopilot telemetry (MAVLink 2) and maritime frame generator with
+//! ground truth, for bench-testing `mgmot`. See `sim/README.md` and `mgmot-sim --help`.
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
 }

@@ -12,23 +12,30 @@ use mgmot::eval::{
 use mgmot::formats::mot::{self, MotRecord};
 use serde::Serialize;
 
-/// Evaluate tracking results against ground truth (MOTChallenge txt).
-///
-/// PATH is either one MOTChallenge txt file on each side, or a folder on each
-/// side. A ground-truth folder holds sequences as `<seq>/gt/gt.txt`
-/// (MOTChallenge layout, optional `<seq>/seqinfo.ini`) or `<seq>.txt`; the
-/// results folder holds `<seq>.txt` for every ground-truth sequence.
-///
-/// Evaluation is class-agnostic (ground-truth rows with conf 0 are ignored,
-/// every result row is kept) unless --per-class is given.
-///
-/// JSON output (--json): for two files, one object with the keys HOTA, DetA,
-/// AssA, DetRe, DetPr, AssRe, AssPr, LocA, MOTA, MOTP, IDF1, IDR, IDP, IDSW,
-/// Frag, MT, PT, ML, FP, FN, Recall, Precision (ratios as fractions, counts as
-/// integers). For folders, {"sequences": {"<seq>": {...}}, "combined": {...}}.
-/// With --per-class, {"classes": {"<class>": <the above>}, "class_averaged":
-/// {...}, "detection_averaged": {...}}, combined over classes as TrackEval does.
+/// What `mgmot eval --help` says about inputs and output, beyond the flags.
+const AFTER_HELP: &str = "\
+Metrics are computed exactly as TrackEval computes them.
+
+PATH is one MOTChallenge txt file on each side, or a folder on each side. A
+ground-truth folder holds sequences as <seq>/gt/gt.txt (MOTChallenge layout,
+with an optional <seq>/seqinfo.ini whose seqLength bounds the frames) or as
+<seq>.txt; the results folder holds <seq>.txt for every ground-truth sequence
+(a missing one is an error; extra ones are ignored with a warning).
+
+Evaluation is class-agnostic: ground-truth rows with conf 0 are ignored and
+every result row is kept. --per-class evaluates each class (column 8) alone.
+
+JSON (--json): for two files, one object with the keys HOTA, DetA, AssA,
+DetRe, DetPr, AssRe, AssPr, LocA, MOTA, MOTP, IDF1, IDR, IDP, IDSW, Frag, MT,
+PT, ML, FP, FN, Recall, Precision (ratios as fractions, counts as integers).
+For folders: {\"sequences\": {\"<seq>\": {...}}, \"combined\": {...}}.
+With --per-class: {\"classes\": {\"<class>\": <one of the above>},
+\"class_averaged\": {...}, \"detection_averaged\": {...}}, classes combined as
+TrackEval's class-averaged and detection-averaged results.";
+
+/// Arguments of `mgmot eval` (inputs and output are described in [`AFTER_HELP`]).
 #[derive(Debug, clap::Args)]
+#[command(after_long_help = AFTER_HELP)]
 pub struct Args {
     /// Ground truth: a MOTChallenge txt file or a folder of sequences.
     #[arg(long, value_name = "PATH")]

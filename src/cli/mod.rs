@@ -38,7 +38,7 @@ enum Command {
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logging(cli.verbose);
+    mgmot::logging::init(tracing::Level::WARN, cli.verbose);
     let result: anyhow::Result<()> = match cli.command {
         Command::Geolocate(args) => geolocate::run(args),
         Command::Eval(args) => eval::run(args),
@@ -53,20 +53,4 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn init_logging(verbose: u8) {
-    let default = match verbose {
-        0 => "warn",
-        1 => "info",
-        2 => "debug",
-        _ => "trace",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    // Logs go to stderr so that `--json` output on stdout stays machine-readable.
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
 }

@@ -10,8 +10,8 @@ use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, Pixel, PoseNoise};
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, MergeEvent, Tracker, TrackerParams,
-    WorldObservation, WorldState,
+    track_sequence, BBox, Detection, FrameInput, MergeEvent, SequenceTrack, Tracker, TrackerParams,
+    WorldObservation,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 /// Track each video of a SeaDronesSee file and geolocate the tracks.
 ///
-/// Writes, per video, `<video>.txt` (MOTChallenge results: frame,id,x,y,w,h,conf,-1,-1,-1),
+/// Writes, per video, `<video>.txt` (MOTChallenge results: frame,id,x,y,w,h,conf,-1,-1),
 /// `<video>_tracks.csv` (or .geojson: one row per track per frame with lat/lon), and a
 /// `summary.json` with the counts and the online mode's merge events.
 #[derive(Debug, ClapArgs)]
@@ -49,9 +49,19 @@ pub struct Args {
     /// Horizontal field of view of the camera (deg).
     #[arg(long, default_value_t = 70.0)]
     fov_deg: f64,
+    /// How long the metadata lags the video (s): each metadata record describes the moment this
+    /// long before the frame it comes with; the pose is interpolated between records.
+    /// SeaDronesSee's DJI logs lag by about 1 s; simulator output has no lag.
+    #[arg(long, default_value_t = 0.0)]
+    metadata_lag_s: f64,
     /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`.
     #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS)]
     fps: f64,
+    /// Write each track's class id in column 8 of the MOTChallenge results (for
+    /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
+    /// convention that TrackEval's MOT loader requires.
+    #[arg(long)]
+    class_column: bool,
     /// Geo track file format.
     #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
     geo_format: GeoOut,
@@ -292,29 +302,26 @@ fn track_video(
     let first_image = &ds.images[first.image_index];
     let camera = CameraModel::from_hfov(first_image.width, first_image.height, args.fov_deg)
         .with_context(|| format!("video {}: camera model", seq.name))?;
-    let metas: Vec<_> = seq
+    if let Some(image) = seq
         .frames
         .iter()
-        .map(|f| {
-            let image = &ds.images[f.image_index];
-            if (image.width, image.height) != (first_image.width, first_image.height) {
-                bail!(
-                    "video {}: image {} is {}x{}, unlike the video's first frame",
-                    seq.name,
-                    image.id,
-                    image.width,
-                    image.height
-                );
-            }
-            match (&image.meta, args.no_metadata) {
-                (Some(m), false) => m
-                    .to_frame_metadata()
-                    .map(Some)
-                    .with_context(|| format!("image {}: metadata", image.id)),
-                _ => Ok(None),
-            }
-        })
-        .collect::<anyhow::Result<_>>()?;
+        .map(|f| &ds.images[f.image_index])
+        .find(|im| (im.width, im.height) != (first_image.width, first_image.height))
+    {
+        bail!(
+            "video {}: image {} is {}x{}, unlike the video's first frame",
+            seq.name,
+            image.id,
+            image.width,
+            image.height
+        );
+    }
+    let metas = if args.no_metadata {
+        vec![None; seq.frames.len()]
+    } else {
+        ds.frame_metadata(seq, args.metadata_lag_s)
+            .with_context(|| format!("video {}: metadata", seq.name))?
+    };
     let reference = metas.iter().flatten().next().map(|m| m.nadir_on_water());
     let geolocator = reference.map(|r| Geolocator::new(r, camera, PoseNoise::default()));
 
@@ -349,7 +356,7 @@ fn track_video(
             _ => None,
         };
         inputs.push(FrameInput {
-            frame_index: f.frame_number,
+            frame_index: f.video_frame,
             time_s: f.time_s,
             image_size_px: (image.width, image.height),
             detections,
@@ -358,64 +365,25 @@ fn track_video(
         previous = geometry;
     }
 
-    let to_row = |frame: u64,
-                  time_s: f64,
-                  id: u64,
-                  class_id: u32,
-                  score: f32,
-                  world: &WorldState,
-                  interpolated: bool| {
-        let reference = geolocator.as_ref().map(|g| g.reference());
-        reference.map(|r| {
-            let geodetic = r.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
-            TrackRow {
-                frame,
-                time_s,
-                track_id: id,
-                class_id,
-                score,
-                lat_deg: geodetic.lat_deg,
-                lon_deg: geodetic.lon_deg,
-                north_m: world.pos_ne_m.x,
-                east_m: world.pos_ne_m.y,
-                vel_north_mps: world.vel_ne_m_s.x,
-                vel_east_mps: world.vel_ne_m_s.y,
-                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
-                interpolated,
-            }
-        })
-    };
-
-    let mut mot_rows = Vec::new();
-    let mut geo_rows = Vec::new();
+    // Every reported track box of either mode, with the position of its frame in the video.
+    let mut tracked: Vec<(usize, SequenceTrack)> = Vec::new();
     let mut merges = Vec::new();
     match args.mode {
         Mode::Online => {
             let mut tracker = Tracker::new(params.clone())?;
-            for input in &inputs {
+            for (pos, input) in inputs.iter().enumerate() {
                 let out = tracker.step(input)?;
-                for t in &out.tracks {
-                    mot_rows.push(mot_result(
-                        input.frame_index,
-                        t.id,
-                        &t.bbox,
-                        t.score,
-                        t.class_id,
-                    ));
-                    if let Some(row) = t.world.as_ref().and_then(|w| {
-                        to_row(
-                            input.frame_index,
-                            input.time_s,
-                            t.id,
-                            t.class_id,
-                            t.score,
-                            w,
-                            false,
-                        )
-                    }) {
-                        geo_rows.push(row);
-                    }
-                }
+                tracked.extend(out.tracks.iter().map(|t| {
+                    let st = SequenceTrack {
+                        id: t.id,
+                        bbox: t.bbox,
+                        score: t.score,
+                        class_id: t.class_id,
+                        world: t.world,
+                        interpolated: false,
+                    };
+                    (pos, st)
+                }));
                 merges.extend(out.merges);
                 progress.inc(1);
             }
@@ -423,31 +391,43 @@ fn track_video(
         }
         Mode::Offline => {
             let result = track_sequence(&inputs, params)?;
-            for frame in &result.frames {
-                for t in &frame.tracks {
-                    mot_rows.push(mot_result(
-                        frame.frame_index,
-                        t.id,
-                        &t.bbox,
-                        t.score,
-                        t.class_id,
-                    ));
-                    if let Some(row) = t.world.as_ref().and_then(|w| {
-                        to_row(
-                            frame.frame_index,
-                            frame.time_s,
-                            t.id,
-                            t.class_id,
-                            t.score,
-                            w,
-                            t.interpolated,
-                        )
-                    }) {
-                        geo_rows.push(row);
-                    }
-                }
+            for (pos, frame) in result.frames.iter().enumerate() {
+                tracked.extend(frame.tracks.iter().map(|t| (pos, *t)));
             }
             progress.inc(inputs.len() as u64);
+        }
+    }
+
+    let reference = geolocator.as_ref().map(|g| g.reference());
+    let mut mot_rows = Vec::with_capacity(tracked.len());
+    let mut geo_rows = Vec::with_capacity(tracked.len());
+    for (pos, t) in &tracked {
+        let f = &seq.frames[*pos];
+        mot_rows.push(mot_result(
+            f.frame_number,
+            t.id,
+            &t.bbox,
+            t.score,
+            args.class_column.then_some(t.class_id),
+        ));
+        if let (Some(world), Some(reference)) = (&t.world, reference) {
+            let geodetic =
+                reference.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
+            geo_rows.push(TrackRow {
+                frame: f.frame_number,
+                time_s: f.time_s,
+                track_id: t.id,
+                class_id: t.class_id,
+                score: t.score,
+                lat_deg: geodetic.lat_deg,
+                lon_deg: geodetic.lon_deg,
+                north_m: world.pos_ne_m.x,
+                east_m: world.pos_ne_m.y,
+                vel_north_mps: world.vel_ne_m_s.x,
+                vel_east_mps: world.vel_ne_m_s.y,
+                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
+                interpolated: t.interpolated,
+            });
         }
     }
 
@@ -480,8 +460,9 @@ fn track_video(
     })
 }
 
-/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1`.
-fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: u32) -> mot::MotRecord {
+/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1` (class -1 when `class_id` is
+/// `None`).
+fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: Option<u32>) -> mot::MotRecord {
     mot::MotRecord {
         frame,
         id: i64::try_from(id).unwrap_or(i64::MAX),
@@ -492,7 +473,7 @@ fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: u32) -> mot::
             h: b.h,
         },
         conf: f64::from(score),
-        class: i64::from(class_id),
+        class: class_id.map_or(-1, i64::from),
         visibility: None,
     }
 }

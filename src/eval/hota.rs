@@ -1,8 +1,7 @@
 //! HOTA (Luiten et al., IJCV 2021) as TrackEval's `metrics/hota.py` computes it.
 
-use std::collections::HashMap;
-
 use super::assignment::maximise_score;
+use super::pair_table::PairTable;
 use super::sequence::PreparedSequence;
 use super::EPS;
 
@@ -141,39 +140,34 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> HotaCounts {
         return res;
     }
 
-    let num_pred_ids = seq.num_pred_ids as u64;
-    let key = |g: usize, p: usize| g as u64 * num_pred_ids + p as u64;
-
     // First pass: id counts and IoU-normalised potential matches per id pair.
-    let mut potential_matches: HashMap<u64, f64> = HashMap::new();
+    let mut potential_matches: PairTable<f64> = PairTable::new(seq.num_gt_ids, seq.num_pred_ids);
     let mut gt_id_count = vec![0.0_f64; seq.num_gt_ids];
     let mut pred_id_count = vec![0.0_f64; seq.num_pred_ids];
     let mut row_sum = Vec::new();
     let mut col_sum = Vec::new();
     for frame in &seq.frames {
         let (ng, np) = (frame.gt_ids.len(), frame.pred_ids.len());
-        row_sum.clear();
-        row_sum.resize(ng, 0.0);
-        col_sum.clear();
-        col_sum.resize(np, 0.0);
-        for g in 0..ng {
-            for p in 0..np {
-                let s = frame.sim(g, p);
-                row_sum[g] += s;
-                col_sum[p] += s;
-            }
-        }
-        for g in 0..ng {
-            for p in 0..np {
-                let s = frame.sim(g, p);
-                if s == 0.0 {
-                    continue;
+        if ng > 0 && np > 0 {
+            let rows = frame.similarity.chunks_exact(np);
+            row_sum.clear();
+            row_sum.extend(rows.clone().map(|row| row.iter().sum::<f64>()));
+            col_sum.clear();
+            col_sum.resize(np, 0.0);
+            for row in rows.clone() {
+                for (c, s) in col_sum.iter_mut().zip(row) {
+                    *c += s;
                 }
-                let denom = col_sum[p] + row_sum[g] - s;
-                if denom > EPS {
-                    *potential_matches
-                        .entry(key(frame.gt_ids[g], frame.pred_ids[p]))
-                        .or_insert(0.0) += s / denom;
+            }
+            for ((row, &g), &rs) in rows.zip(&frame.gt_ids).zip(&row_sum) {
+                for ((&s, &p), &cs) in row.iter().zip(&frame.pred_ids).zip(&col_sum) {
+                    if s == 0.0 {
+                        continue;
+                    }
+                    let denom = cs + rs - s;
+                    if denom > EPS {
+                        *potential_matches.get_mut(g, p) += s / denom;
+                    }
                 }
             }
         }
@@ -185,14 +179,17 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> HotaCounts {
         }
     }
     let global_alignment = |g: usize, p: usize| -> f64 {
-        match potential_matches.get(&key(g, p)) {
-            Some(&m) => m / (gt_id_count[g] + pred_id_count[p] - m),
-            None => 0.0,
+        let m = potential_matches.get(g, p);
+        if m == 0.0 {
+            0.0
+        } else {
+            m / (gt_id_count[g] + pred_id_count[p] - m)
         }
     };
 
     // Second pass: one assignment per frame, thresholded at every alpha.
-    let mut matches_count: HashMap<u64, [u32; NUM_ALPHAS]> = HashMap::new();
+    let mut matches_count: PairTable<[u32; NUM_ALPHAS]> =
+        PairTable::new(seq.num_gt_ids, seq.num_pred_ids);
     let mut score = Vec::new();
     for frame in &seq.frames {
         let (ng, np) = (frame.gt_ids.len(), frame.pred_ids.len());
@@ -223,9 +220,7 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> HotaCounts {
                 if s >= alpha - EPS {
                     num_matches += 1;
                     loc += s;
-                    matches_count
-                        .entry(key(frame.gt_ids[g], frame.pred_ids[p]))
-                        .or_insert([0; NUM_ALPHAS])[a] += 1;
+                    matches_count.get_mut(frame.gt_ids[g], frame.pred_ids[p])[a] += 1;
                 }
             }
             res.tp[a] += num_matches as f64;
@@ -236,15 +231,9 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> HotaCounts {
     }
 
     // Association scores: per id pair, weighted by its number of matches.
-    // Summed in id order so that results do not depend on hash order.
-    let mut matches_count: Vec<(u64, [u32; NUM_ALPHAS])> = matches_count.into_iter().collect();
-    matches_count.sort_unstable_by_key(|(k, _)| *k);
-    for (k, counts) in &matches_count {
-        let k = *k;
-        let g = (k / num_pred_ids) as usize;
-        let p = (k % num_pred_ids) as usize;
-        for a in 0..NUM_ALPHAS {
-            let m = f64::from(counts[a]);
+    for ((g, p), counts) in matches_count.into_sorted_entries() {
+        for (a, &count) in counts.iter().enumerate() {
+            let m = f64::from(count);
             if m == 0.0 {
                 continue;
             }

@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 
 use super::assignment::maximise_score;
+use super::pair_table::PairTable;
 use super::sequence::PreparedSequence;
 
 /// IoU a frame-level identity match needs (TrackEval's default; compared with
@@ -69,26 +70,25 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> IdentityCounts {
         };
     }
     let (ng, np) = (seq.num_gt_ids, seq.num_pred_ids);
-    let mut potential_matches: HashMap<(usize, usize), u64> = HashMap::new();
+    let mut potential_matches: PairTable<u64> = PairTable::new(ng, np);
     for frame in &seq.frames {
         let fp = frame.pred_ids.len();
         for (gi, &g) in frame.gt_ids.iter().enumerate() {
             for (pi, &p) in frame.pred_ids.iter().enumerate() {
                 if frame.similarity[gi * fp + pi] >= THRESHOLD {
-                    *potential_matches.entry((g, p)).or_insert(0) += 1;
+                    *potential_matches.get_mut(g, p) += 1;
                 }
             }
         }
     }
-    let mut pairs: Vec<((usize, usize), u64)> = potential_matches.into_iter().collect();
-    pairs.sort_unstable();
+    let pairs = potential_matches.into_sorted_entries();
 
     // Connected components over nodes 0..ng (gt ids) and ng..ng+np (pred ids).
     let mut components = DisjointSets::new(ng + np);
     for &((g, p), _) in &pairs {
         components.union(g, ng + p);
     }
-    let mut by_component: HashMap<usize, Vec<((usize, usize), u64)>> = HashMap::new();
+    let mut by_component: HashMap<usize, Vec<Edge>> = HashMap::new();
     for &pair in &pairs {
         let root = components.find(pair.0 .0);
         by_component.entry(root).or_default().push(pair);
@@ -124,6 +124,9 @@ pub(crate) fn evaluate(seq: &PreparedSequence) -> IdentityCounts {
         idfp: num_pred_dets - idtp,
     }
 }
+
+/// A (gt id, predicted id) pair and the number of frames it overlaps in.
+type Edge = ((usize, usize), u64);
 
 /// Union-find with path halving, for splitting the id overlap graph.
 struct DisjointSets {

@@ -2,8 +2,6 @@
 //! (TrackEval's `get_preprocessed_seq_data` for the configuration described in
 //! the module docs of [`crate::eval`]).
 
-use std::collections::{HashMap, HashSet};
-
 use super::{box_iou, Annotation, EvalError};
 
 /// Which objects take part in an evaluation.
@@ -65,51 +63,57 @@ impl PreparedSequence {
     ) -> Result<Self, EvalError> {
         check_unique(gt, "ground truth")?;
         check_unique(pred, "prediction")?;
-        let gt: Vec<&Annotation> = gt
+        let mut gt: Vec<&Annotation> = gt
             .iter()
             .filter(|a| a.considered && classes.keeps(a.class))
             .collect();
-        let pred: Vec<&Annotation> = pred.iter().filter(|a| classes.keeps(a.class)).collect();
+        let mut pred: Vec<&Annotation> = pred.iter().filter(|a| classes.keeps(a.class)).collect();
+        // Stable: rows of one frame stay in input order.
+        gt.sort_by_key(|a| a.frame);
+        pred.sort_by_key(|a| a.frame);
         check_finite(&gt, "ground truth")?;
         check_finite(&pred, "prediction")?;
 
-        let gt_map = relabel(&gt);
-        let pred_map = relabel(&pred);
+        let gt_ids = IdMap::new(&gt);
+        let pred_ids = IdMap::new(&pred);
         let gt_by_frame = group_by_frame(&gt);
         let pred_by_frame = group_by_frame(&pred);
 
-        let mut frame_numbers: Vec<u64> = gt_by_frame
-            .keys()
-            .chain(pred_by_frame.keys())
-            .copied()
-            .collect();
-        frame_numbers.sort_unstable();
-        frame_numbers.dedup();
-
-        let empty: Vec<&Annotation> = Vec::new();
-        let frames = frame_numbers
-            .iter()
-            .map(|f| {
-                let g = gt_by_frame.get(f).unwrap_or(&empty);
-                let p = pred_by_frame.get(f).unwrap_or(&empty);
-                let mut similarity = Vec::with_capacity(g.len() * p.len());
-                for a in g {
-                    for b in p {
-                        similarity.push(box_iou(&a.bbox, &b.bbox));
-                    }
+        // Walk both frame lists (sorted by frame number) together.
+        let mut frames = Vec::with_capacity(gt_by_frame.len().max(pred_by_frame.len()));
+        let mut gt_frames = gt_by_frame.iter().peekable();
+        let mut pred_frames = pred_by_frame.iter().peekable();
+        let empty: &[&Annotation] = &[];
+        loop {
+            let frame = match (gt_frames.peek(), pred_frames.peek()) {
+                (None, None) => break,
+                (Some(g), Some(p)) => g.0.min(p.0),
+                (Some(g), None) => g.0,
+                (None, Some(p)) => p.0,
+            };
+            let g = gt_frames
+                .next_if(|(f, _)| *f == frame)
+                .map_or(empty, |(_, rows)| *rows);
+            let p = pred_frames
+                .next_if(|(f, _)| *f == frame)
+                .map_or(empty, |(_, rows)| *rows);
+            let mut similarity = Vec::with_capacity(g.len() * p.len());
+            for a in g {
+                for b in p {
+                    similarity.push(box_iou(&a.bbox, &b.bbox));
                 }
-                PreparedFrame {
-                    gt_ids: g.iter().map(|a| gt_map[&a.id]).collect(),
-                    pred_ids: p.iter().map(|a| pred_map[&a.id]).collect(),
-                    similarity,
-                }
-            })
-            .collect();
+            }
+            frames.push(PreparedFrame {
+                gt_ids: g.iter().map(|a| gt_ids.index(a.id)).collect(),
+                pred_ids: p.iter().map(|a| pred_ids.index(a.id)).collect(),
+                similarity,
+            });
+        }
 
         Ok(PreparedSequence {
             frames,
-            num_gt_ids: gt_map.len(),
-            num_pred_ids: pred_map.len(),
+            num_gt_ids: gt_ids.len(),
+            num_pred_ids: pred_ids.len(),
             num_gt_dets: gt.len(),
             num_pred_dets: pred.len(),
         })
@@ -137,17 +141,16 @@ impl PreparedSequence {
 }
 
 fn check_unique(rows: &[Annotation], side: &'static str) -> Result<(), EvalError> {
-    let mut seen = HashSet::with_capacity(rows.len());
-    for a in rows {
-        if !seen.insert((a.frame, a.id)) {
-            return Err(EvalError::DuplicateId {
-                side,
-                frame: a.frame,
-                id: a.id,
-            });
-        }
+    let mut keys: Vec<(u64, i64)> = rows.iter().map(|a| (a.frame, a.id)).collect();
+    keys.sort_unstable();
+    match keys.windows(2).find(|w| w[0] == w[1]) {
+        Some(w) => Err(EvalError::DuplicateId {
+            side,
+            frame: w[0].0,
+            id: w[0].1,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 fn check_finite(rows: &[&Annotation], side: &'static str) -> Result<(), EvalError> {
@@ -166,17 +169,41 @@ fn check_finite(rows: &[&Annotation], side: &'static str) -> Result<(), EvalErro
 
 /// Maps original ids to 0..n in increasing order of the original id (TrackEval
 /// uses `np.unique`, which sorts).
-fn relabel(rows: &[&Annotation]) -> HashMap<i64, usize> {
-    let mut ids: Vec<i64> = rows.iter().map(|a| a.id).collect();
-    ids.sort_unstable();
-    ids.dedup();
-    ids.into_iter().enumerate().map(|(i, id)| (id, i)).collect()
+struct IdMap {
+    sorted_ids: Vec<i64>,
 }
 
-fn group_by_frame<'a>(rows: &[&'a Annotation]) -> HashMap<u64, Vec<&'a Annotation>> {
-    let mut by_frame: HashMap<u64, Vec<&'a Annotation>> = HashMap::new();
-    for a in rows {
-        by_frame.entry(a.frame).or_default().push(a);
+impl IdMap {
+    fn new(rows: &[&Annotation]) -> Self {
+        let mut sorted_ids: Vec<i64> = rows.iter().map(|a| a.id).collect();
+        sorted_ids.sort_unstable();
+        sorted_ids.dedup();
+        IdMap { sorted_ids }
     }
-    by_frame
+
+    /// The contiguous index of an id taken from the rows this map was built from.
+    fn index(&self, id: i64) -> usize {
+        // Every id of those rows is in the list, so the search always succeeds.
+        self.sorted_ids.binary_search(&id).unwrap_or_else(|i| i)
+    }
+
+    fn len(&self) -> usize {
+        self.sorted_ids.len()
+    }
+}
+
+/// Rows grouped by frame, frames in increasing order, rows of a frame in input
+/// order (TrackEval keeps file order within a timestep).
+fn group_by_frame<'r, 'a>(rows: &'r [&'a Annotation]) -> Vec<(u64, &'r [&'a Annotation])> {
+    let mut groups = Vec::new();
+    let mut start = 0;
+    for i in 1..=rows.len() {
+        if i == rows.len() || rows[i].frame != rows[start].frame {
+            if start < i {
+                groups.push((rows[start].frame, &rows[start..i]));
+            }
+            start = i;
+        }
+    }
+    groups
 }

@@ -22,7 +22,6 @@
 //! A sequence without a results file is an error naming it, as in TrackEval;
 //! results files without ground truth are ignored with a warning.
 
-use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -163,7 +162,7 @@ pub fn read_detections(path: &Path) -> Result<Vec<MotRecord>, MotError> {
 /// Parses MOTChallenge lines; with `unique_ids`, a repeated (frame, id) pair is an error.
 fn parse_records(text: &str, path: &Path, unique_ids: bool) -> Result<Vec<MotRecord>, MotError> {
     let mut records = Vec::new();
-    let mut first_line_of: HashMap<(u64, i64), usize> = HashMap::new();
+    let mut lines = Vec::new();
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;
@@ -176,23 +175,45 @@ fn parse_records(text: &str, path: &Path, unique_ids: bool) -> Result<Vec<MotRec
             line,
             problem,
         })?;
-        if !unique_ids {
-            records.push(record);
-            continue;
-        }
-        if let Some(&first_line) = first_line_of.get(&(record.frame, record.id)) {
-            return Err(MotError::DuplicateId {
-                path: path.to_path_buf(),
-                line,
-                first_line,
-                frame: record.frame,
-                id: record.id,
-            });
-        }
-        first_line_of.insert((record.frame, record.id), line);
         records.push(record);
+        lines.push(line);
+    }
+    if unique_ids {
+        check_unique_ids(&records, &lines, path)?;
     }
     Ok(records)
+}
+
+/// Rejects an id that occurs twice in a frame, naming the earliest line that
+/// repeats one. Sorting is much cheaper than hashing for files of 10^5+ lines.
+fn check_unique_ids(records: &[MotRecord], lines: &[usize], path: &Path) -> Result<(), MotError> {
+    let mut keys: Vec<(u64, i64, usize)> = records
+        .iter()
+        .zip(lines)
+        .map(|(r, &line)| (r.frame, r.id, line))
+        .collect();
+    keys.sort_unstable();
+    let repeat = keys
+        .windows(2)
+        .filter(|w| w[0].0 == w[1].0 && w[0].1 == w[1].1)
+        .min_by_key(|w| w[1].2);
+    match repeat {
+        None => Ok(()),
+        Some(w) => {
+            // The first line of this (frame, id) is the smallest one of its run.
+            let first_line = keys
+                .iter()
+                .find(|k| k.0 == w[0].0 && k.1 == w[0].1)
+                .map_or(w[0].2, |k| k.2);
+            Err(MotError::DuplicateId {
+                path: path.to_path_buf(),
+                line: w[1].2,
+                first_line,
+                frame: w[0].0,
+                id: w[0].1,
+            })
+        }
+    }
 }
 
 /// Reads and parses one MOTChallenge file.
@@ -264,13 +285,9 @@ fn parse_line(line: &str) -> Result<MotRecord, String> {
         Ok(())
     };
     if line.contains(',') {
-        let fields: Vec<&str> = line.split(',').collect();
         // A trailing comma leaves an empty last field; TrackEval drops it too.
-        let used = match fields.last() {
-            Some(last) if last.trim().is_empty() => &fields[..fields.len() - 1],
-            _ => &fields[..],
-        };
-        for f in used {
+        let line = line.strip_suffix(',').unwrap_or(line);
+        for f in line.split(',') {
             push(f)?;
         }
     } else {

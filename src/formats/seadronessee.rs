@@ -202,6 +202,10 @@ pub struct SequenceFrame {
     pub image_id: u64,
     /// 1-based frame number within the sequence (MOTChallenge convention).
     pub frame_number: u64,
+    /// Frame number in the original video (`source.frame_no`, else `frame_index`, else the
+    /// 1-based position): gaps show frames that were skipped, which the tracker's motion model
+    /// must predict across.
+    pub video_frame: u64,
     /// Seconds since the sequence's first frame.
     pub time_s: f64,
 }
@@ -348,17 +352,81 @@ impl Dataset {
                     .iter()
                     .zip(times)
                     .enumerate()
-                    .map(|(k, (&i, time_s))| SequenceFrame {
-                        image_index: i,
-                        image_id: self.images[i].id,
-                        frame_number: k as u64 + 1,
-                        time_s,
+                    .map(|(k, (&i, time_s))| {
+                        let im = &self.images[i];
+                        SequenceFrame {
+                            image_index: i,
+                            image_id: im.id,
+                            frame_number: k as u64 + 1,
+                            video_frame: im
+                                .source
+                                .as_ref()
+                                .and_then(|s| s.frame_no)
+                                .or(im.frame_index)
+                                .unwrap_or(k as u64 + 1),
+                            time_s,
+                        }
                     })
                     .collect();
                 Sequence { name, frames }
             })
             .collect()
     }
+}
+
+impl Dataset {
+    /// The camera metadata of every frame of `seq`, treating the images' `meta` as a log: a
+    /// record is a new sample when its values change, and it describes the moment `lag_s`
+    /// before the first frame it came with. Each frame's metadata is interpolated between the
+    /// samples around its time (clamped at the ends); frames without `meta` get `None`.
+    ///
+    /// SeaDronesSee's DJI logs update at about 1 Hz and lag the video by about 1 s; simulated
+    /// metadata changes every frame and has no lag (`lag_s` = 0 then reproduces it exactly).
+    pub fn frame_metadata(
+        &self,
+        seq: &Sequence,
+        lag_s: f64,
+    ) -> Result<Vec<Option<FrameMetadata>>, GeoError> {
+        let mut samples: Vec<(f64, FrameMetadata)> = Vec::new();
+        let mut last: Option<&Meta> = None;
+        for f in &seq.frames {
+            let Some(meta) = self.images[f.image_index].meta.as_ref() else {
+                continue;
+            };
+            if last.is_some_and(|l| same_record(l, meta)) {
+                continue;
+            }
+            last = Some(meta);
+            samples.push((f.time_s - lag_s, meta.to_frame_metadata()?));
+        }
+        Ok(seq
+            .frames
+            .iter()
+            .map(|f| {
+                self.images[f.image_index].meta.as_ref()?;
+                let after = samples.partition_point(|(t, _)| *t <= f.time_s);
+                match (
+                    after.checked_sub(1).map(|k| &samples[k]),
+                    samples.get(after),
+                ) {
+                    (Some((t0, m0)), Some((t1, m1))) => {
+                        Some(m0.interpolate(m1, (f.time_s - t0) / (t1 - t0)))
+                    }
+                    (Some((_, m)), None) | (None, Some((_, m))) => Some(*m),
+                    (None, None) => None,
+                }
+            })
+            .collect())
+    }
+}
+
+/// Whether two metadata records carry the same pose (a log record repeated on several frames).
+fn same_record(a: &Meta, b: &Meta) -> bool {
+    a.latitude == b.latitude
+        && a.longitude == b.longitude
+        && a.height_above_takeoff_m == b.height_above_takeoff_m
+        && a.gimbal_heading_deg == b.gimbal_heading_deg
+        && a.gimbal_pitch_deg == b.gimbal_pitch_deg
 }
 
 /// Parses an ISO 8601 date-time without zone (`%Y-%m-%dT%H:%M:%S%.f`, or with a space
@@ -448,6 +516,35 @@ mod tests {
             let e = read_dataset(f.path()).unwrap_err().to_string();
             assert!(e.contains(place), "{e} should name {place}");
         }
+    }
+
+    #[test]
+    fn metadata_log_is_interpolated_with_lag() {
+        let img = |id: u64, frame: u64, lat: f64| {
+            format!(
+                r#"{{"id": {id}, "width": 100, "height": 50, "source": {{"folder_name": "A", "frame_no": {frame}}},
+                  "meta": {{"latitude": {lat}, "longitude": 9.0, "height_above_takeoff(meter)": 20.0,
+                  "gimbal_heading(degrees)": 0.0, "gimbal_pitch(degrees)": 90.0}}}}"#
+            )
+        };
+        // A log that updates every other frame (frames at 1/30 s).
+        let f = write(&format!(
+            r#"{{"images": [{}, {}, {}, {}]}}"#,
+            img(1, 0, 47.0),
+            img(2, 1, 47.0),
+            img(3, 2, 47.002),
+            img(4, 3, 47.002)
+        ));
+        let ds = read_dataset(f.path()).unwrap();
+        let seq = &ds.sequences(30.0)[0];
+        assert_eq!(seq.frames[3].video_frame, 3);
+        let no_lag = ds.frame_metadata(seq, 0.0).unwrap();
+        let lat: Vec<f64> = no_lag.iter().map(|m| m.unwrap().position.lat_deg).collect();
+        assert!((lat[1] - 47.001).abs() < 1e-9, "{lat:?}");
+        assert!((lat[3] - 47.002).abs() < 1e-9);
+        // With a lag of one frame the second record already holds at frame 1.
+        let lagged = ds.frame_metadata(seq, 1.0 / 30.0).unwrap();
+        assert!((lagged[1].unwrap().position.lat_deg - 47.002).abs() < 1e-9);
     }
 
     #[test]

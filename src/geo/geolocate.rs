@@ -51,6 +51,28 @@ impl FrameMetadata {
         })
     }
 
+    /// Interpolates between two metadata samples: position and height linearly, attitude by
+    /// slerp; `s` = 0 gives `self`, 1 gives `other`.
+    pub fn interpolate(&self, other: &FrameMetadata, s: f64) -> FrameMetadata {
+        let lerp = |a: f64, b: f64| a + (b - a) * s;
+        FrameMetadata {
+            position: Geodetic {
+                lat_deg: lerp(self.position.lat_deg, other.position.lat_deg),
+                lon_deg: lerp(self.position.lon_deg, other.position.lon_deg),
+                alt_m: lerp(self.position.alt_m, other.position.alt_m),
+            },
+            height_above_sea_m: lerp(self.height_above_sea_m, other.height_above_sea_m),
+            camera_attitude: self
+                .camera_attitude
+                .try_slerp(&other.camera_attitude, s, 1e-9)
+                .unwrap_or(if s < 0.5 {
+                    self.camera_attitude
+                } else {
+                    other.camera_attitude
+                }),
+        }
+    }
+
     /// The point on the water directly below the camera.
     pub fn nadir_on_water(&self) -> Geodetic {
         Geodetic {
@@ -218,6 +240,25 @@ mod tests {
             loc.ned_m.z.abs() < 0.1,
             "sea stays near down = 0: {}",
             loc.ned_m
+        );
+    }
+
+    #[test]
+    fn interpolation_takes_the_short_way_round() {
+        let a = FrameMetadata::from_seadronessee(47.0, 9.0, 30.0, 350.0, 40.0).unwrap();
+        let b = FrameMetadata::from_seadronessee(47.001, 9.002, 40.0, 10.0, 60.0).unwrap();
+        let m = a.interpolate(&b, 0.5);
+        let expected = FrameMetadata::from_seadronessee(47.0005, 9.001, 35.0, 0.0, 50.0).unwrap();
+        assert!(
+            (m.position.lat_deg - 47.0005).abs() < 1e-12
+                && (m.height_above_sea_m - 35.0).abs() < 1e-12
+        );
+        assert!(m.camera_attitude.angle_to(&expected.camera_attitude) < 0.02);
+        assert!(
+            a.interpolate(&b, 0.0)
+                .camera_attitude
+                .angle_to(&a.camera_attitude)
+                < 1e-9
         );
     }
 

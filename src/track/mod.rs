@@ -7,8 +7,10 @@
 //! the previous frame (camera-motion compensation). Without any metadata the tracker is the
 //! plain BoT-SORT baseline (without appearance features).
 //!
-//! - Online: [`Tracker::step`] per frame; ReID links are decided once a new track has lived
-//!   `w` frames and reported as [`MergeEvent`]s.
+//! - Online: [`Tracker::step`] per frame returns the confirmed tracks; ReID links are
+//!   decided once a new track has lived `w` frames and reported as [`MergeEvent`]s;
+//!   [`Tracker::live_tracks`] lists every kept track with its [`TrackState`] (lost ones
+//!   included); [`Tracker::finish`] decides the pending links at the end of a sequence.
 //! - Offline: [`track_sequence`] runs the baseline over a whole sequence and then the paper's
 //!   post-processing, interpolation -> ReID -> interpolation.
 //! - The paper's equations: [`reid::window_velocity`] (Eq. 8), [`reid::extrapolate`] (Eq. 7),

@@ -99,7 +99,10 @@ pub fn track_sequence(
                 score: t.score,
                 class_id: Some(det.map_or(t.class_id, |d| d.class_id)),
                 world: t.world,
-                obs_ne_m: det.and_then(|d| d.world).map(|w| w.pos_ne_m),
+                obs_ne_m: det
+                    .and_then(|d| d.world)
+                    .map(|w| w.pos_ne_m)
+                    .filter(|p| p.iter().all(|v| v.is_finite())),
                 interpolated: false,
             });
         }
@@ -271,5 +274,72 @@ fn interpolate(points: &mut Vec<Point>, frames: &[FrameInput], max_gap_frames: u
     if !filled.is_empty() {
         points.extend(filled);
         points.sort_by_key(|p| p.pos);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn frame(i: u64) -> FrameInput {
+        FrameInput {
+            frame_index: i,
+            time_s: i as f64 / 30.0,
+            image_size_px: (100, 100),
+            detections: vec![],
+            image_motion: None,
+        }
+    }
+
+    fn point(pos: usize, x: f64, obs: Option<f64>) -> Point {
+        Point {
+            pos,
+            bbox: BBox::new(x, 0.0, 10.0, 10.0),
+            score: 0.8,
+            class_id: Some(1),
+            world: None,
+            obs_ne_m: obs.map(|n| Vector2::new(n, 0.0)),
+            interpolated: false,
+        }
+    }
+
+    #[test]
+    fn interpolation_fills_short_gaps_in_frame_numbers() {
+        // frame 3 was dropped from the input: positions 0..=4 are frames 0, 1, 2, 4, 5
+        let frames: Vec<_> = [0, 1, 2, 4, 5].into_iter().map(frame).collect();
+        let mut pts = vec![point(0, 0.0, Some(0.0)), point(4, 50.0, Some(5.0))];
+        interpolate(&mut pts, &frames, 20);
+        let xs: Vec<f64> = pts.iter().map(|p| p.bbox.x).collect();
+        assert_eq!(
+            pts.iter().map(|p| p.pos).collect::<Vec<_>>(),
+            vec![0, 1, 2, 3, 4]
+        );
+        // frame 4 is 4/5 of the way
+        assert_relative_eq!(xs[3], 40.0);
+        assert_relative_eq!(pts[2].obs_ne_m.unwrap().x, 2.0);
+        assert!(pts[1].interpolated && !pts[4].interpolated);
+        assert_eq!(pts[1].class_id, None);
+    }
+
+    #[test]
+    fn empty_sequence_gives_empty_result() {
+        let r = track_sequence(&[], &TrackerParams::default()).unwrap();
+        assert!(r.frames.is_empty() && r.relabelled.is_empty());
+        let frames: Vec<_> = (0..3).map(frame).collect();
+        let r = track_sequence(&frames, &TrackerParams::default()).unwrap();
+        assert_eq!(r.frames.len(), 3);
+        assert!(r.frames.iter().all(|f| f.tracks.is_empty()));
+    }
+
+    #[test]
+    fn interpolation_leaves_long_gaps_open() {
+        let frames: Vec<_> = (0..10).map(frame).collect();
+        let mut pts = vec![point(0, 0.0, None), point(9, 90.0, None)];
+        interpolate(&mut pts, &frames, 7);
+        assert_eq!(pts.len(), 2);
+        interpolate(&mut pts, &frames, 8);
+        assert_eq!(pts.len(), 10);
+        assert!(pts.iter().all(|p| p.obs_ne_m.is_none()));
     }
 }

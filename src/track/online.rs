@@ -30,16 +30,21 @@ struct Track {
     uid: u64,
     /// Reported id; becomes the old id when online ReID links this track.
     id: u64,
+    /// Image-plane box state.
     kf: BoxKalman,
+    /// Life-cycle state.
     phase: Phase,
     /// BoT-SORT `is_activated`: matched at least twice (or born in the first frame).
     activated: bool,
+    /// Score of the last matched detection (the reported confidence).
     score: f32,
     /// (class id, count) of every matched detection, for the majority vote.
     class_votes: Vec<(u32, u32)>,
+    /// Frame the track was born in (age for duplicates and the ReID window).
     start_frame: u64,
     /// Last frame with a matched detection.
     end_frame: u64,
+    /// World position/velocity filter, from the first world observation on.
     world: Option<WorldFilter>,
     /// First `w + 1` world observations `(time_s, pos)`: entry position and velocity.
     head: Vec<(f64, Vector2<f64>)>,
@@ -47,6 +52,7 @@ struct Track {
     tail: VecDeque<(f64, Vector2<f64>)>,
     /// Last matched detection box and the image size it was seen in (did it leave the view?).
     last_bbox: BBox,
+    /// Image size of the frame `last_bbox` was seen in.
     last_image_size_px: (u32, u32),
     /// Online ReID has been tried for this track (once, at `w` frames).
     reid_decided: bool,
@@ -106,10 +112,13 @@ pub(crate) fn add_vote(votes: &mut Vec<(u32, u32)>, class_id: u32) {
 /// A finished (lost or removed) track waiting in the memory bank for re-identification.
 #[derive(Debug, Clone)]
 struct MemoryEntry {
+    /// Baseline identity of the lost track (to drop the entry if IoU matching resumes it).
     uid: u64,
+    /// Reported id a linked track will take over.
     id: u64,
     /// Last frame the track was matched in: a candidate must start after it.
     end_frame: u64,
+    /// Where, when and how fast it was last seen.
     exit: TrackEnd,
 }
 
@@ -141,13 +150,21 @@ struct Scratch {
 /// [`MergeEvent`].
 #[derive(Debug, Clone)]
 pub struct Tracker {
+    /// Validated parameters, fixed for the tracker's life.
     params: TrackerParams,
+    /// Tentative, confirmed and lost tracks (removed ones are dropped at the end of a step).
     tracks: Vec<Track>,
+    /// The MG-MOT memory bank: exits of reported tracks that were lost, waiting for ReID.
     memory: Vec<MemoryEntry>,
+    /// Next baseline id; ids are never reused.
     next_uid: u64,
+    /// Steps so far: BoT-SORT activates the tracks of the very first frame at once.
     steps: u64,
+    /// Frame number of the previous step: frame gaps drive prediction and the lost buffer.
     last_frame_index: Option<u64>,
+    /// Time of the previous step, s: rejects time going backwards; world predictions.
     last_time_s: f64,
+    /// Reused buffers.
     scratch: Scratch,
 }
 
@@ -175,6 +192,33 @@ impl Tracker {
     /// Number of tracks currently kept (tentative, confirmed and lost).
     pub fn live_track_count(&self) -> usize {
         self.tracks.len()
+    }
+
+    /// Every track the tracker keeps after the last step, in any state (the step output
+    /// holds the confirmed ones only): lost tracks report their Kalman-predicted box and
+    /// their world state predicted to the last frame's time, with no detection.
+    pub fn live_tracks(&self) -> impl Iterator<Item = TrackOutput> + '_ {
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        self.tracks.iter().map(move |t| {
+            let state = match (t.phase, t.activated) {
+                (Phase::Tracked, true) => TrackState::Confirmed,
+                (Phase::Tracked, false) => TrackState::Tentative,
+                (Phase::Lost, _) => TrackState::Lost,
+                (Phase::Removed, _) => TrackState::Removed,
+            };
+            TrackOutput {
+                id: t.id,
+                bbox: t.kf.bbox(),
+                score: t.score,
+                class_id: t.class_id(),
+                state,
+                world: t
+                    .world
+                    .as_ref()
+                    .map(|w| w.predicted(self.last_time_s, accel)),
+                detection_index: t.matched_det,
+            }
+        })
     }
 
     /// Processes one frame. Frames must come in increasing `frame_index` order; an
@@ -604,4 +648,21 @@ fn record_world(
         t.tail.pop_front();
     }
     t.tail.push_back((time_s, obs.pos_ne_m));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn majority_vote_with_deterministic_ties() {
+        let mut v = Vec::new();
+        for c in [2, 1, 2, 1, 3] {
+            add_vote(&mut v, c);
+        }
+        assert_eq!(majority_class(&v), 1); // 1 and 2 tie at two votes: lower id
+        add_vote(&mut v, 2);
+        assert_eq!(majority_class(&v), 2);
+        assert_eq!(majority_class(&[]), 0);
+    }
 }

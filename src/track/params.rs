@@ -52,8 +52,10 @@ pub struct BaselineParams {
     /// duplicates; the younger one is removed (BoT-SORT constant 0.15).
     pub duplicate_iou_dist: f64,
     /// IoU threshold of the "prefer larger" NMS applied to the detections of every frame
-    /// (paper Sec. 5.1 post-processing; 0.5, the best IoU threshold of the paper's ablation).
-    /// `None` disables it.
+    /// (paper Sec. 5.1 post-processing). 0.5, the best "IoU threshold" of the paper's
+    /// ablation; that threshold is read as the NMS one because FP grows with it there (more
+    /// overlapping boxes survive), while BoT-SORT without appearance features has no other
+    /// IoU threshold. `None` disables it.
     pub nms_iou_threshold: Option<f64>,
     /// Standard deviation of the white-noise acceleration of the world-state filter, m/s^2.
     /// 0.5: swimmers and drifting objects barely accelerate; boats manoeuvre more but the
@@ -153,9 +155,12 @@ pub struct ReidParams {
     pub short_term: bool,
     /// Long-term ReID (BiME + MTE, Eq. 7-9).
     pub long_term: bool,
-    /// w, frames: the velocity window of Eq. 8 (exit velocity from the observation w frames
-    /// before the exit, entry velocity from the one w frames after the entry); online, also
-    /// how long a new track must live before it is linked. 30 frames = 1 s at 30 fps: long
+    /// w, frames: the velocity window of Eq. 8. The exit velocity uses the observation w
+    /// matched observations before the exit (the paper's `X_{t_exit - w}`; the same as w
+    /// frames when the track was matched in every frame) and divides by the true time
+    /// between the two, s; the entry velocity likewise w observations after the entry.
+    /// Online, a new track is linked once `frame_index - start_frame >= w` (frame numbers,
+    /// so dropped frames count). 30 frames = 1 s at 30 fps: long
     /// enough that geolocation noise (about 1 m) gives a velocity error near 1 m/s, short
     /// enough that online re-labels come within a second.
     pub window_frames: u32,

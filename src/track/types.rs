@@ -35,8 +35,9 @@ pub struct FrameInput {
     pub image_size_px: (u32, u32),
     /// The detections of this frame.
     pub detections: Vec<Detection>,
-    /// Homography mapping the previous frame's pixels to this frame's (the sea-plane
-    /// homography between the two camera poses). `None`: no camera-motion compensation, the
+    /// Homography mapping the pixels of the previous frame given to the tracker (dropped
+    /// frames are skipped, not composed by the tracker) to this frame's: the sea-plane
+    /// homography between the two camera poses. `None`: no camera-motion compensation, the
     /// plain baseline.
     pub image_motion: Option<Matrix3<f64>>,
 }
@@ -69,8 +70,8 @@ pub struct TrackOutput {
     pub state: TrackState,
     /// World position, velocity and covariance, when the track has had a world observation.
     pub world: Option<WorldState>,
-    /// Index into [`FrameInput::detections`] of the detection matched in this frame, or `None`
-    /// for the rare report without a match in this frame.
+    /// Index into [`FrameInput::detections`] of the detection matched in this frame. Always
+    /// set in [`FrameOutput::tracks`]; `None` for lost tracks from `Tracker::live_tracks`.
     pub detection_index: Option<usize>,
 }
 

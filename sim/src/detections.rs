@@ -1,0 +1,248 @@
+//! The detection simulator: detections derived from the ground truth with a detector's
+//! typical errors (misses that grow as boxes shrink, box jitter proportional to size,
+//! false positives on glint and wave crests, confidence scores), so the tracker can be
+//! benchmarked without running a detector.
+
+use crate::scenario::{Detector, ObjectClass};
+use crate::truth::{FrameTruth, Optics};
+use crate::world::World;
+use mgmot::geo::Pixel;
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Poisson, StandardNormal};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// First RNG stream of the per-frame detector noise; frame `k` uses `STREAM_DETECTIONS + k`,
+/// so any frame's detections are reproducible on their own.
+const STREAM_DETECTIONS: u64 = 1 << 32;
+
+/// Probability that a detection gets a neighbouring class (swimmer <-> appliance,
+/// boat <-> jetski).
+const CLASS_CONFUSION: f64 = 0.02;
+
+/// One simulated detection (COCO results entry).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Detection {
+    /// Image id (frame index + 1, as in the SeaDronesSee JSON).
+    pub image_id: u64,
+    /// Category id.
+    pub category_id: u32,
+    /// `[x, y, w, h]` in pixels.
+    pub bbox: [f64; 4],
+    /// Confidence in (0, 1).
+    pub score: f64,
+    /// Ground-truth track id, or `None` for a false positive (not written to COCO results).
+    #[serde(skip)]
+    pub truth_id: Option<u32>,
+}
+
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
+}
+
+/// Probability that the detector misses a box of size `size_px` (sqrt of area).
+pub fn miss_probability(det: &Detector, size_px: f64, visibility: f64) -> f64 {
+    let half = det.miss_half_size_px.max(0.5);
+    let small = 1.0 / (1.0 + ((size_px - half) / (0.25 * half)).exp());
+    let p = det.miss_floor + (1.0 - det.miss_floor) * small;
+    // Objects cut by the image border are harder.
+    (p + (1.0 - visibility) * 0.3).clamp(0.0, 1.0)
+}
+
+/// Simulated detections of one frame.
+pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection> {
+    let det = &world.scenario.detector;
+    let mut rng = ChaCha8Rng::seed_from_u64(world.seed);
+    rng.set_stream(STREAM_DETECTIONS + ft.index);
+    let (w_img, h_img) = (
+        f64::from(world.scenario.camera.width_px),
+        f64::from(world.scenario.camera.height_px),
+    );
+    let image_id = ft.index + 1;
+    let mut out = Vec::new();
+    for b in &ft.boxes {
+        let [x, y, w, h] = b.bbox;
+        let size = (w * h).sqrt();
+        // Draw every random number whether or not it is used, so that one object's fate
+        // does not shift the others'.
+        let u_miss: f64 = rng.random();
+        let noise = [
+            gauss(&mut rng),
+            gauss(&mut rng),
+            gauss(&mut rng),
+            gauss(&mut rng),
+        ];
+        let score_noise = gauss(&mut rng);
+        let u_class: f64 = rng.random();
+        if u_miss < miss_probability(det, size, b.visibility) {
+            continue;
+        }
+        let j = det.jitter_fraction;
+        let cx = x + w / 2.0 + noise[0] * j * w;
+        let cy = y + h / 2.0 + noise[1] * j * h;
+        let nw = (w * (1.0 + noise[2] * j)).max(1.0);
+        let nh = (h * (1.0 + noise[3] * j)).max(1.0);
+        let bbox = clip([cx - nw / 2.0, cy - nh / 2.0, nw, nh], w_img, h_img);
+        let Some(bbox) = bbox else { continue };
+        let score =
+            (0.3 + 0.62 * (1.0 - (-size / 18.0).exp()) + 0.08 * score_noise).clamp(0.02, 0.99);
+        if score < det.min_score {
+            continue;
+        }
+        let class = if u_class < CLASS_CONFUSION {
+            match b.object.class {
+                ObjectClass::Swimmer => ObjectClass::LifeSavingAppliance,
+                ObjectClass::LifeSavingAppliance => ObjectClass::Swimmer,
+                ObjectClass::Boat => ObjectClass::Jetski,
+                ObjectClass::Jetski => ObjectClass::Boat,
+                ObjectClass::Buoy => ObjectClass::Buoy,
+            }
+        } else {
+            b.object.class
+        };
+        out.push(Detection {
+            image_id,
+            category_id: class.category_id(),
+            bbox,
+            score,
+            truth_id: Some(b.object.id),
+        });
+    }
+    // False positives: glint sparkles near the sun's specular point and wave crests anywhere
+    // on the water, mostly taken for swimmers, with low scores.
+    let n_fp = if det.false_positives_per_frame > 0.0 {
+        Poisson::new(det.false_positives_per_frame)
+            .map(|p| p.sample(&mut rng) as u32)
+            .unwrap_or(0)
+    } else {
+        0
+    };
+    let glint_px = glint_pixel(world, optics, ft);
+    for _ in 0..n_fp {
+        let (u, v) = match glint_px {
+            Some((gu, gv)) if rng.random::<f64>() < 0.5 => (
+                gu + gauss(&mut rng) * w_img * 0.05,
+                gv + gauss(&mut rng) * h_img * 0.05,
+            ),
+            _ => (
+                rng.random_range(0.0..w_img),
+                rng.random_range(h_img * 0.3..h_img),
+            ),
+        };
+        // Only on the water (a crest has to be on the sea).
+        if optics
+            .model
+            .project_to_sea(&ft.pose, &optics.sea, Pixel::new(u, v))
+            .is_err()
+        {
+            continue;
+        }
+        let size = rng.random_range(3.0..18.0);
+        let aspect = rng.random_range(0.6..1.6);
+        let (bw, bh) = (size * aspect, size / aspect);
+        let Some(bbox) = clip([u - bw / 2.0, v - bh / 2.0, bw, bh], w_img, h_img) else {
+            continue;
+        };
+        let category_id = if rng.random::<f64>() < 0.8 { 1 } else { 5 };
+        let score = rng.random_range(0.05..0.45);
+        if score < det.min_score {
+            continue;
+        }
+        out.push(Detection {
+            image_id,
+            category_id,
+            bbox,
+            score,
+            truth_id: None,
+        });
+    }
+    out
+}
+
+/// Pixel of the sun's specular reflection on the sea, if it is in front of the camera.
+fn glint_pixel(world: &World, optics: &Optics, ft: &FrameTruth) -> Option<(f64, f64)> {
+    let sea = &world.scenario.sea;
+    let alt = -ft.pose.position_ned.z;
+    let d = alt / sea.sun_elevation_deg.to_radians().tan().max(0.05);
+    let az = sea.sun_azimuth_deg.to_radians();
+    let p = Vector3::new(
+        ft.pose.position_ned.x + d * az.cos(),
+        ft.pose.position_ned.y + d * az.sin(),
+        optics.sea.down_m,
+    );
+    let px = optics.model.project_to_image(&ft.pose, &p).ok()?;
+    optics.model.intrinsics.contains(px).then_some((px.u, px.v))
+}
+
+fn clip(b: [f64; 4], w_img: f64, h_img: f64) -> Option<[f64; 4]> {
+    let x0 = b[0].max(0.0);
+    let y0 = b[1].max(0.0);
+    let x1 = (b[0] + b[2]).min(w_img);
+    let y1 = (b[1] + b[3]).min(h_img);
+    (x1 - x0 >= 1.0 && y1 - y0 >= 1.0).then(|| {
+        let r = |v: f64| (v * 100.0).round() / 100.0;
+        [r(x0), r(y0), r(x1 - x0), r(y1 - y0)]
+    })
+}
+
+/// MOTChallenge detection lines: `frame,-1,x,y,w,h,score,-1,-1,-1`.
+pub fn mot_det_lines(frame_index: u64, dets: &[Detection]) -> String {
+    let mut s = String::new();
+    for d in dets {
+        let _ = writeln!(
+            s,
+            "{},-1,{:.2},{:.2},{:.2},{:.2},{:.4},-1,-1,-1",
+            frame_index + 1,
+            d.bbox[0],
+            d.bbox[1],
+            d.bbox[2],
+            d.bbox[3],
+            d.score
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+    use crate::truth::frame_truth;
+
+    #[test]
+    fn small_boxes_are_missed_more() {
+        let d = Detector::default();
+        assert!(miss_probability(&d, 3.0, 1.0) > 0.8);
+        assert!(miss_probability(&d, 40.0, 1.0) < 0.05);
+        assert!(miss_probability(&d, 40.0, 0.3) > miss_probability(&d, 40.0, 1.0));
+    }
+
+    #[test]
+    fn detections_track_the_truth_and_are_reproducible() {
+        let s = Scenario::load("calm_baseline").unwrap();
+        let optics = Optics::new(&s).unwrap();
+        let world = World::new(s, 1);
+        let (mut tp, mut gt, mut fp) = (0, 0, 0);
+        for index in (0..1800).step_by(10) {
+            let ft = frame_truth(&world, &optics, index);
+            let dets = detect(&world, &optics, &ft);
+            assert_eq!(dets, detect(&world, &optics, &ft));
+            gt += ft.boxes.len();
+            for d in &dets {
+                match d.truth_id {
+                    Some(id) => {
+                        tp += 1;
+                        let b = ft.boxes.iter().find(|b| b.object.id == id).unwrap();
+                        let dx = (d.bbox[0] + d.bbox[2] / 2.0) - (b.bbox[0] + b.bbox[2] / 2.0);
+                        assert!(dx.abs() < 0.5 * b.bbox[2].max(4.0), "{dx}");
+                    }
+                    None => fp += 1,
+                }
+            }
+        }
+        assert!(tp as f64 > 0.7 * gt as f64 && tp < gt, "tp {tp} gt {gt}");
+        assert!(fp > 0);
+    }
+}

@@ -1,0 +1,867 @@
+//! The frame renderer: a textured, moving sea with sun glint and haze, and objects drawn as
+//! projected 3D silhouettes at the right pixel size for their distance and the FOV.
+//!
+//! Sea: each pixel's sea-plane coordinates come from the image->sea homography, fitted once
+//! per frame to four pixels that [`mgmot::geo::CameraModel::project_to_sea`] maps to the water
+//! (so the one camera model of the library decides where everything is), and evaluated
+//! incrementally along each row. Two precomputed tiling textures (swell and chop), shifted
+//! over time, give moving waves. Objects: their 3D parts are projected with
+//! [`mgmot::geo::CameraModel::project_to_image`] and filled as convex silhouettes, far to near.
+
+use crate::objects::ObjectState;
+use crate::scenario::{ObjectClass, Scenario};
+use crate::truth::Optics;
+use crate::world::World;
+use mgmot::geo::{CameraPose, Pixel};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Side of the square tiling textures (a power of two: indices wrap with a mask).
+const TEX: usize = 256;
+const TEX_MASK: i32 = (TEX as i32) - 1;
+
+/// A tiling texture; fixed size so that masked indices need no bounds checks.
+type Texture = [u8; TEX * TEX];
+
+/// Entries of the per-frame distance look-up tables (haze, texture level of detail, glint).
+const LUT: usize = 1024;
+
+/// RNG stream of the textures.
+const STREAM_TEXTURE: u64 = 3;
+
+/// Bytes per pixel of the output (packed RGB24).
+pub const BYTES_PER_PIXEL: usize = 3;
+
+/// Renders frames of one scenario.
+#[derive(Debug, Clone)]
+pub struct Renderer {
+    width: usize,
+    height: usize,
+    /// Swell texture: crest lines across the wave direction, one wavelength per 64 texels.
+    swell: Box<Texture>,
+    /// Chop texture: isotropic fine ripples (also the glint sparkle mask).
+    chop: Box<Texture>,
+    sea_rgb: [f32; 3],
+    haze_rgb: [f32; 3],
+    sky_top_rgb: [f32; 3],
+    wave_amp: f32,
+    wave_length_m: f64,
+    wave_dir_rad: f64,
+    wave_speed_mps: f64,
+    sun_elevation_rad: f64,
+    sun_azimuth_rad: f64,
+    glint: f32,
+}
+
+/// Texels of the swell texture per wavelength along the wave direction.
+const SWELL_TEXELS_PER_WAVE: f64 = 64.0;
+/// The swell texture spans this many wavelengths across the wave direction (crests are long).
+const SWELL_ACROSS_WAVES: f64 = 12.0;
+/// Texels of the chop texture per metre.
+const CHOP_TEXELS_PER_M: f64 = 24.0;
+
+impl Renderer {
+    /// Builds the textures and colours of `scenario`.
+    pub fn new(scenario: &Scenario, seed: u64) -> Renderer {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(STREAM_TEXTURE);
+        let phase = value_noise(&mut rng, &[(4, 1.0), (8, 0.5)]);
+        let amp = value_noise(&mut rng, &[(4, 1.0), (16, 0.4)]);
+        let mut swell: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        for y in 0..TEX {
+            for x in 0..TEX {
+                let i = y * TEX + x;
+                let ph = (x as f32 / SWELL_TEXELS_PER_WAVE as f32 + 1.5 * phase[i])
+                    * std::f32::consts::TAU;
+                // Sharper crests than troughs, like real waves.
+                let s = 0.5 + 0.5 * ph.sin();
+                let v = (s * s * (0.4 + 0.9 * amp[i])).clamp(0.0, 1.0);
+                swell[i] = (v * 255.0) as u8;
+            }
+        }
+        let chop_f = value_noise(&mut rng, &[(16, 1.0), (32, 0.6), (64, 0.35)]);
+        let mut chop: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        for (c, v) in chop.iter_mut().zip(chop_f.iter()) {
+            *c = (v.clamp(0.0, 1.0) * 255.0) as u8;
+        }
+        let sea = &scenario.sea;
+        let c = sea.color_rgb;
+        Renderer {
+            width: scenario.camera.width_px as usize,
+            height: scenario.camera.height_px as usize,
+            swell,
+            chop,
+            sea_rgb: [f32::from(c[0]), f32::from(c[1]), f32::from(c[2])],
+            haze_rgb: [150.0, 170.0, 180.0],
+            sky_top_rgb: [95.0, 140.0, 200.0],
+            wave_amp: (sea.wave_height_m as f32).clamp(0.1, 2.0),
+            wave_length_m: sea.wave_length_m,
+            wave_dir_rad: sea.wave_direction_deg.to_radians(),
+            wave_speed_mps: sea.wave_speed_mps,
+            sun_elevation_rad: sea.sun_elevation_deg.to_radians(),
+            sun_azimuth_rad: sea.sun_azimuth_deg.to_radians(),
+            glint: sea.glint as f32,
+        }
+    }
+
+    /// Image width.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Size of one RGB24 frame in bytes.
+    pub fn frame_bytes(&self) -> usize {
+        self.width * self.height * BYTES_PER_PIXEL
+    }
+
+    /// Renders the frame captured at true time `t_s` into `rgb` (RGB24, `frame_bytes()`
+    /// long); `with_objects = false` draws the sea only (used by tests).
+    pub fn render(
+        &self,
+        world: &World,
+        optics: &Optics,
+        t_s: f64,
+        rgb: &mut [u8],
+        with_objects: bool,
+    ) {
+        let state = world.truth(t_s);
+        let pose = optics.pose(&state);
+        self.render_sea(optics, &pose, t_s, rgb);
+        if with_objects {
+            let mut objects = world.objects_at(t_s);
+            let cam = pose.position_ned;
+            objects.sort_by(|a, b| {
+                let da = (Vector3::from(a.pos_ned_m) - cam).norm_squared();
+                let db = (Vector3::from(b.pos_ned_m) - cam).norm_squared();
+                db.total_cmp(&da)
+            });
+            let mut canvas = Canvas {
+                rgb,
+                width: self.width,
+                height: self.height,
+            };
+            for o in &objects {
+                draw_object(&mut canvas, optics, &pose, o);
+            }
+        }
+    }
+
+    /// Fits the pixel -> (north, east, 1) homography from four pixels on the water.
+    fn image_to_sea(&self, optics: &Optics, pose: &CameraPose) -> Option<Matrix3<f64>> {
+        let (w, h) = (self.width as f64, self.height as f64);
+        let sea = |u: f64, v: f64| {
+            optics
+                .model
+                .project_to_sea(pose, &optics.sea, Pixel::new(u, v))
+                .ok()
+        };
+        let bottom = [(0.0, h), (w, h)];
+        let b0 = sea(bottom[0].0, bottom[0].1)?;
+        let b1 = sea(bottom[1].0, bottom[1].1)?;
+        // The highest row (smallest v) still fully on the water, among a few candidates.
+        let mut top = None;
+        for frac in [0.0, 0.2, 0.4, 0.6, 0.75, 0.9] {
+            let v = h * frac;
+            if let (Some(a), Some(b)) = (sea(0.0, v), sea(w, v)) {
+                top = Some((v, a, b));
+                break;
+            }
+        }
+        let (vt, t0, t1) = top?;
+        let src = [(0.0, h), (w, h), (0.0, vt), (w, vt)];
+        let dst = [b0, b1, t0, t1];
+        fit_homography(&src, &dst.map(|p| (p.x, p.y)))
+    }
+
+    fn render_sea(&self, optics: &Optics, pose: &CameraPose, t_s: f64, rgb: &mut [u8]) {
+        let (w, h) = (self.width, self.height);
+        let Some(hm) = self.image_to_sea(optics, pose) else {
+            self.fill_sky(rgb, 0, h);
+            return;
+        };
+        let cam_n = pose.position_ned.x;
+        let cam_e = pose.position_ned.y;
+        let alt = (optics.sea.down_m - pose.position_ned.z).max(0.1);
+        let f = optics.model.intrinsics.fx;
+
+        // Linear forms over homogeneous pixels (u, v, 1): each row r gives r.p / (w.p).
+        let row = |i: usize| SVector::<f64, 3>::new(hm[(i, 0)], hm[(i, 1)], hm[(i, 2)]);
+        let (rn, re, rw) = (row(0), row(1), row(2));
+        // Relative to the camera's ground point, so the numbers stay small.
+        let rel_n = rn - rw * cam_n;
+        let rel_e = re - rw * cam_e;
+        // Swell texture coordinates: along / across the wave direction, animated.
+        let (sd, cd) = self.wave_dir_rad.sin_cos();
+        let sa = SWELL_TEXELS_PER_WAVE / self.wave_length_m;
+        let sc = TEX as f64 / (SWELL_ACROSS_WAVES * self.wave_length_m);
+        let swell_u = (rn * cd + re * sd) * sa;
+        let swell_v = (-rn * sd + re * cd) * sc;
+        let swell_off = -(t_s * self.wave_speed_mps * sa);
+        // Chop: a slower drift in another direction.
+        let (sd2, cd2) = (self.wave_dir_rad + 0.9).sin_cos();
+        let chop_u = rn * CHOP_TEXELS_PER_M;
+        let chop_v = re * CHOP_TEXELS_PER_M;
+        let chop_off = (
+            -(t_s * 0.35 * cd2 * CHOP_TEXELS_PER_M),
+            -(t_s * 0.35 * sd2 * CHOP_TEXELS_PER_M),
+        );
+        // Specular point of the sun, relative to the camera's ground point.
+        let spec_d = alt / self.sun_elevation_rad.tan().max(0.05);
+        let (sn, se) = (
+            spec_d * self.sun_azimuth_rad.cos(),
+            spec_d * self.sun_azimuth_rad.sin(),
+        );
+        let glint_sigma = alt * (0.18 + 0.08 * f64::from(self.wave_amp));
+        // Per-frame look-up tables over squared ground distance.
+        let fog_r2 = (alt * 25.0).max(400.0).powi(2);
+        let d2_max = fog_r2 * 12.0;
+        let d2_scale = (LUT - 1) as f64 / d2_max;
+        let lod_a_r2 = self.wave_length_m / 6.0 * f * alt;
+        let lod_b_r2 = 0.15 * f * alt;
+        let mut lut_fog = [0f32; LUT];
+        let mut lut_lod_a = [0f32; LUT];
+        let mut lut_lod_b = [0f32; LUT];
+        for i in 0..LUT {
+            let d2 = i as f64 / d2_scale;
+            let slant2 = d2 + alt * alt;
+            lut_fog[i] = (d2 / (d2 + fog_r2)) as f32;
+            lut_lod_a[i] = (lod_a_r2 / (slant2.max(lod_a_r2))) as f32;
+            lut_lod_b[i] = (lod_b_r2 / (slant2.max(lod_b_r2))) as f32;
+        }
+        let g2_max = glint_sigma * glint_sigma * 9.0;
+        let g2_scale = (LUT - 1) as f64 / g2_max;
+        let mut lut_glint = [0f32; LUT];
+        for (i, g) in lut_glint.iter_mut().enumerate() {
+            let d2 = i as f64 / g2_scale;
+            *g = (-d2 / (2.0 * glint_sigma * glint_sigma)).exp() as f32;
+        }
+        let ctx = SeaFrame {
+            forms: [rel_n, rel_e, swell_u, swell_v, chop_u, chop_v, rw],
+            swell_off,
+            chop_off,
+            spec_ne: (sn, se),
+            d2_scale,
+            g2_scale,
+            lut_fog,
+            lut_lod_a,
+            lut_lod_b,
+            lut_glint,
+        };
+        for v in 0..h {
+            let line = &mut rgb[v * w * BYTES_PER_PIXEL..(v + 1) * w * BYTES_PER_PIXEL];
+            self.render_row(&ctx, v, line);
+        }
+    }
+
+    /// Shading inputs of one pixel position, computed exactly (with the perspective
+    /// division) at span ends and interpolated linearly in between.
+    fn sea_point(&self, ctx: &SeaFrame, u: f64, v: f64) -> Option<SeaPoint> {
+        let p = SVector::<f64, 3>::new(u, v, 1.0);
+        let wgt = ctx.forms[6].dot(&p);
+        if wgt <= 1e-12 {
+            return None;
+        }
+        let inv = 1.0 / wgt;
+        let dn = ctx.forms[0].dot(&p) * inv;
+        let de = ctx.forms[1].dot(&p) * inv;
+        let d2 = dn * dn + de * de;
+        let k = ((d2 * ctx.d2_scale) as usize).min(LUT - 1);
+        let fog = ctx.lut_fog[k];
+        let (gn, ge) = (dn - ctx.spec_ne.0, de - ctx.spec_ne.1);
+        let gk = (((gn * gn + ge * ge) * ctx.g2_scale) as usize).min(LUT - 1);
+        let g = ctx.lut_glint[gk] * self.glint;
+        let mut c0 = [0f32; 3];
+        let mut c1 = [0f32; 3];
+        for c in 0..3 {
+            c0[c] = self.sea_rgb[c] * (1.0 - fog);
+            c1[c] = self.haze_rgb[c] * fog + g * 70.0;
+        }
+        // Texture coordinates in 24.8 fixed point, wrapping (the textures tile).
+        let fx = |x: f64| ((x * 256.0) as i64) as i32;
+        Some(
+            SeaPoint {
+                su: ctx.forms[2].dot(&p) * inv + ctx.swell_off,
+                sv: ctx.forms[3].dot(&p) * inv,
+                cu: ctx.forms[4].dot(&p) * inv + ctx.chop_off.0,
+                cv: ctx.forms[5].dot(&p) * inv + ctx.chop_off.1,
+                fixed: [0; 4],
+                c0,
+                c1,
+                amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
+                amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
+                sparkle: 3.0 * g,
+            }
+            .with_fixed(fx),
+        )
+    }
+
+    fn render_row(&self, ctx: &SeaFrame, v: usize, line: &mut [u8]) {
+        let w = self.width;
+        let vc = v as f64 + 0.5;
+        let sky = self.sky_at(v).map(|c| c.clamp(0.0, 255.0) as u8);
+        let mut u = 0;
+        let mut left = self.sea_point(ctx, 0.5, vc);
+        while u < w {
+            let end = (u + SPAN).min(w);
+            let n = end - u;
+            let right = self.sea_point(ctx, end as f64 + 0.5, vc);
+            match (&left, &right) {
+                (Some(a), Some(b)) => {
+                    let inv_n = 1.0 / n as f32;
+                    let d = |x: f64, y: f64| (((y - x) * 256.0) / n as f64) as i32;
+                    let dfx = [d(a.su, b.su), d(a.sv, b.sv), d(a.cu, b.cu), d(a.cv, b.cv)];
+                    let mut fxy = a.fixed;
+                    let mut c0 = a.c0;
+                    let mut c1 = a.c1;
+                    let mut dc0 = [0f32; 3];
+                    let mut dc1 = [0f32; 3];
+                    for c in 0..3 {
+                        dc0[c] = (b.c0[c] - a.c0[c]) * inv_n;
+                        dc1[c] = (b.c1[c] - a.c1[c]) * inv_n;
+                    }
+                    let (mut amp_a, mut amp_b, mut sparkle) = (a.amp_a, a.amp_b, a.sparkle);
+                    let damp_a = (b.amp_a - a.amp_a) * inv_n;
+                    let damp_b = (b.amp_b - a.amp_b) * inv_n;
+                    let dsparkle = (b.sparkle - a.sparkle) * inv_n;
+                    for px in line[u * BYTES_PER_PIXEL..end * BYTES_PER_PIXEL]
+                        .chunks_exact_mut(BYTES_PER_PIXEL)
+                    {
+                        let swell = sample_bilinear_fixed(&self.swell, fxy[0], fxy[1]);
+                        let chop = f32::from(self.chop[tex_index(fxy[2] >> 8, fxy[3] >> 8)]);
+                        let shade = 1.0 + amp_a * (swell - 100.0) + amp_b * (chop - 128.0);
+                        let spark = if chop > 170.0 {
+                            (chop - 170.0) * sparkle
+                        } else {
+                            0.0
+                        };
+                        px[0] = (c0[0] * shade + c1[0] + spark) as u8;
+                        px[1] = (c0[1] * shade + c1[1] + spark) as u8;
+                        px[2] = (c0[2] * shade + c1[2] + spark) as u8;
+                        for k in 0..4 {
+                            fxy[k] = fxy[k].wrapping_add(dfx[k]);
+                        }
+                        for c in 0..3 {
+                            c0[c] += dc0[c];
+                            c1[c] += dc1[c];
+                        }
+                        amp_a += damp_a;
+                        amp_b += damp_b;
+                        sparkle += dsparkle;
+                    }
+                }
+                _ => {
+                    // Near or above the horizon: every pixel exactly.
+                    for x in u..end {
+                        let px = &mut line[x * BYTES_PER_PIXEL..(x + 1) * BYTES_PER_PIXEL];
+                        match self.sea_point(ctx, x as f64 + 0.5, vc) {
+                            None => px.copy_from_slice(&sky),
+                            Some(p) => {
+                                let swell =
+                                    sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
+                                let chop = f32::from(
+                                    self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)],
+                                );
+                                let shade =
+                                    1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
+                                let spark = if chop > 170.0 {
+                                    (chop - 170.0) * p.sparkle
+                                } else {
+                                    0.0
+                                };
+                                for (c, out) in px.iter_mut().enumerate() {
+                                    // Float-to-int `as` saturates to 0..=255.
+                                    *out = (p.c0[c] * shade + p.c1[c] + spark) as u8;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            left = right;
+            u = end;
+        }
+    }
+
+    fn sky_at(&self, v: usize) -> [f32; 3] {
+        let f = (v as f32 / self.height.max(1) as f32).min(1.0);
+        let mut c = [0f32; 3];
+        for (k, ck) in c.iter_mut().enumerate() {
+            *ck = self.sky_top_rgb[k] + (self.haze_rgb[k] + 30.0 - self.sky_top_rgb[k]) * f;
+        }
+        c
+    }
+
+    fn fill_sky(&self, rgb: &mut [u8], v0: usize, v1: usize) {
+        for v in v0..v1 {
+            let c = self.sky_at(v);
+            let line =
+                &mut rgb[v * self.width * BYTES_PER_PIXEL..(v + 1) * self.width * BYTES_PER_PIXEL];
+            for px in line.chunks_exact_mut(BYTES_PER_PIXEL) {
+                px[0] = c[0] as u8;
+                px[1] = c[1] as u8;
+                px[2] = c[2] as u8;
+            }
+        }
+    }
+}
+
+/// Pixels between exact (perspective-divided) evaluations of the sea coordinates; in
+/// between they are interpolated linearly (the error is far below a texel except next to
+/// the horizon, where spans that cross it are evaluated per pixel).
+const SPAN: usize = 16;
+
+/// Per-frame constants of the sea shading.
+struct SeaFrame {
+    /// Linear forms over (u, v, 1): north and east relative to the camera, swell u/v, chop
+    /// u/v (texels), and the homogeneous weight.
+    forms: [SVector<f64, 3>; 7],
+    swell_off: f64,
+    chop_off: (f64, f64),
+    spec_ne: (f64, f64),
+    d2_scale: f64,
+    g2_scale: f64,
+    lut_fog: [f32; LUT],
+    lut_lod_a: [f32; LUT],
+    lut_lod_b: [f32; LUT],
+    lut_glint: [f32; LUT],
+}
+
+/// Shading inputs at one pixel position.
+struct SeaPoint {
+    su: f64,
+    sv: f64,
+    cu: f64,
+    cv: f64,
+    /// `su, sv, cu, cv` in wrapping 24.8 fixed point.
+    fixed: [i32; 4],
+    /// Colour = c0 * shade + c1 (+ sparkle).
+    c0: [f32; 3],
+    c1: [f32; 3],
+    amp_a: f32,
+    amp_b: f32,
+    sparkle: f32,
+}
+
+impl SeaPoint {
+    fn with_fixed(mut self, fx: impl Fn(f64) -> i32) -> SeaPoint {
+        self.fixed = [fx(self.su), fx(self.sv), fx(self.cu), fx(self.cv)];
+        self
+    }
+}
+
+#[inline]
+fn tex_index(x: i32, y: i32) -> usize {
+    ((y & TEX_MASK) as usize) * TEX + (x & TEX_MASK) as usize
+}
+
+/// Bilinear sample at 24.8 fixed-point texel coordinates (arithmetic shifts floor).
+#[inline]
+fn sample_bilinear_fixed(tex: &Texture, u: i32, v: i32) -> f32 {
+    let (x0, y0) = (u >> 8, v >> 8);
+    let (fu, fv) = ((u & 255) as u32, (v & 255) as u32);
+    let a = u32::from(tex[tex_index(x0, y0)]);
+    let b = u32::from(tex[tex_index(x0 + 1, y0)]);
+    let c = u32::from(tex[tex_index(x0, y0 + 1)]);
+    let d = u32::from(tex[tex_index(x0 + 1, y0 + 1)]);
+    let top = a * (256 - fu) + b * fu;
+    let bot = c * (256 - fu) + d * fu;
+    (top * (256 - fv) + bot * fv) as f32 * (1.0 / 65536.0)
+}
+
+/// Tiling value noise on a TEX x TEX grid: `(cells, weight)` octaves, normalised to [0, 1].
+fn value_noise(rng: &mut ChaCha8Rng, octaves: &[(usize, f32)]) -> Vec<f32> {
+    let mut out = vec![0f32; TEX * TEX];
+    let mut total = 0.0;
+    for &(cells, weight) in octaves {
+        let lattice: Vec<f32> = (0..cells * cells).map(|_| rng.random::<f32>()).collect();
+        let cell = TEX as f32 / cells as f32;
+        for y in 0..TEX {
+            for x in 0..TEX {
+                let gx = x as f32 / cell;
+                let gy = y as f32 / cell;
+                let (ix, iy) = (gx.floor() as usize, gy.floor() as usize);
+                let (fx, fy) = (smooth(gx.fract()), smooth(gy.fract()));
+                let at = |i: usize, j: usize| lattice[(j % cells) * cells + (i % cells)];
+                let top = at(ix, iy) + (at(ix + 1, iy) - at(ix, iy)) * fx;
+                let bot = at(ix, iy + 1) + (at(ix + 1, iy + 1) - at(ix, iy + 1)) * fx;
+                out[y * TEX + x] += weight * (top + (bot - top) * fy);
+            }
+        }
+        total += weight;
+    }
+    for v in &mut out {
+        *v /= total;
+    }
+    out
+}
+
+fn smooth(t: f32) -> f32 {
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Solves the projective map taking the four `src` pixels to the four `dst` sea points
+/// (direct linear transform with h33 = 1), normalised so that w > 0 on the water.
+fn fit_homography(src: &[(f64, f64); 4], dst: &[(f64, f64); 4]) -> Option<Matrix3<f64>> {
+    let mut a = SMatrix::<f64, 8, 8>::zeros();
+    let mut b = SVector::<f64, 8>::zeros();
+    for k in 0..4 {
+        let (x, y) = src[k];
+        let (sx, sy) = (dst[k].0, dst[k].1);
+        let r = 2 * k;
+        let row0 = [x, y, 1.0, 0.0, 0.0, 0.0, -x * sx, -y * sx];
+        let row1 = [0.0, 0.0, 0.0, x, y, 1.0, -x * sy, -y * sy];
+        for j in 0..8 {
+            a[(r, j)] = row0[j];
+            a[(r + 1, j)] = row1[j];
+        }
+        b[r] = sx;
+        b[r + 1] = sy;
+    }
+    let sol = a.lu().solve(&b)?;
+    let m = Matrix3::new(
+        sol[0], sol[1], sol[2], sol[3], sol[4], sol[5], sol[6], sol[7], 1.0,
+    );
+    // Orientation: w must be positive at the water pixels used for the fit.
+    let w0 = m[(2, 0)] * src[0].0 + m[(2, 1)] * src[0].1 + m[(2, 2)];
+    let m = if w0 < 0.0 { -m } else { m };
+    m.iter().all(|v| v.is_finite()).then_some(m)
+}
+
+/// An RGB24 image being drawn on.
+struct Canvas<'a> {
+    rgb: &'a mut [u8],
+    width: usize,
+    height: usize,
+}
+
+impl Canvas<'_> {
+    fn blend(&mut self, x: usize, y: usize, c: [u8; 3], alpha: f32) {
+        if x >= self.width || y >= self.height {
+            return;
+        }
+        let i = (y * self.width + x) * BYTES_PER_PIXEL;
+        for (px, ck) in self.rgb[i..i + BYTES_PER_PIXEL].iter_mut().zip(c) {
+            let old = f32::from(*px);
+            *px = (old + (f32::from(ck) - old) * alpha) as u8;
+        }
+    }
+
+    /// Fills the convex hull of `pts` (pixels); tiny hulls that cover no pixel centre are
+    /// blended into the pixel under their centroid with their area as opacity.
+    fn fill_hull(&mut self, pts: &[(f64, f64)], c: [u8; 3], alpha: f32) {
+        let hull = convex_hull(pts);
+        if hull.len() < 3 {
+            return;
+        }
+        let area = polygon_area(&hull).abs();
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in &hull {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        if x1 < 0.0 || y1 < 0.0 || x0 > self.width as f64 || y0 > self.height as f64 {
+            return;
+        }
+        let mut drawn = false;
+        let ys = (y0 - 0.5).ceil().max(0.0) as usize;
+        let ye = ((y1 - 0.5).floor().min(self.height as f64 - 1.0)).max(-1.0);
+        if ye >= 0.0 {
+            for y in ys..=(ye as usize) {
+                let yc = y as f64 + 0.5;
+                let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+                for i in 0..hull.len() {
+                    let (ax, ay) = hull[i];
+                    let (bx, by) = hull[(i + 1) % hull.len()];
+                    if (ay <= yc && by > yc) || (by <= yc && ay > yc) {
+                        let x = ax + (yc - ay) / (by - ay) * (bx - ax);
+                        lo = lo.min(x);
+                        hi = hi.max(x);
+                    }
+                }
+                if lo > hi {
+                    continue;
+                }
+                let xs = (lo - 0.5).ceil().max(0.0);
+                let xe = (hi - 0.5).floor().min(self.width as f64 - 1.0);
+                if xe < xs {
+                    continue;
+                }
+                for x in (xs as usize)..=(xe as usize) {
+                    self.blend(x, y, c, alpha);
+                    drawn = true;
+                }
+            }
+        }
+        if !drawn && area > 0.0 {
+            let (mut cx, mut cy) = (0.0, 0.0);
+            for &(x, y) in &hull {
+                cx += x;
+                cy += y;
+            }
+            cx /= hull.len() as f64;
+            cy /= hull.len() as f64;
+            if cx >= 0.0 && cy >= 0.0 {
+                self.blend(cx as usize, cy as usize, c, alpha * (area as f32).min(1.0));
+            }
+        }
+    }
+}
+
+fn polygon_area(p: &[(f64, f64)]) -> f64 {
+    let mut a = 0.0;
+    for i in 0..p.len() {
+        let (x0, y0) = p[i];
+        let (x1, y1) = p[(i + 1) % p.len()];
+        a += x0 * y1 - x1 * y0;
+    }
+    a / 2.0
+}
+
+/// Andrew's monotone chain.
+fn convex_hull(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = pts
+        .iter()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    p.dedup();
+    if p.len() < 3 {
+        return p;
+    }
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
+        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+    };
+    let mut lower: Vec<(f64, f64)> = Vec::new();
+    for &q in &p {
+        while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], q) <= 0.0 {
+            lower.pop();
+        }
+        lower.push(q);
+    }
+    let mut upper: Vec<(f64, f64)> = Vec::new();
+    for &q in p.iter().rev() {
+        while upper.len() >= 2 && cross(upper[upper.len() - 2], upper[upper.len() - 1], q) <= 0.0 {
+            upper.pop();
+        }
+        upper.push(q);
+    }
+    lower.pop();
+    upper.pop();
+    lower.extend(upper);
+    lower
+}
+
+/// Colours of life jackets, rings and buoys (high visibility).
+const VIVID: [[u8; 3]; 8] = [
+    [255, 110, 0],
+    [250, 215, 20],
+    [225, 35, 30],
+    [255, 80, 40],
+    [170, 230, 40],
+    [255, 140, 0],
+    [240, 60, 120],
+    [255, 190, 0],
+];
+/// Hull colours.
+const HULLS: [[u8; 3]; 8] = [
+    [236, 236, 232],
+    [200, 40, 35],
+    [30, 50, 110],
+    [150, 155, 160],
+    [240, 200, 40],
+    [245, 245, 245],
+    [60, 120, 70],
+    [220, 220, 210],
+];
+/// Hair / skin tones for heads.
+const HEADS: [[u8; 3]; 4] = [[60, 40, 25], [200, 160, 110], [30, 25, 20], [150, 100, 60]];
+
+/// A part of an object: points in the object's frame (forward, right, up; metres).
+fn ring(cf: f64, cr: f64, rf: f64, rr: f64, up: f64, n: usize) -> Vec<[f64; 3]> {
+    (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            [cf + rf * a.cos(), cr + rr * a.sin(), up]
+        })
+        .collect()
+}
+
+fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &ObjectState) {
+    let (s, c) = o.heading_rad.sin_cos();
+    let base = Vector3::from(o.pos_ned_m);
+    let to_px = |pts: &[[f64; 3]]| -> Option<Vec<(f64, f64)>> {
+        let mut out = Vec::with_capacity(pts.len());
+        for p in pts {
+            let world = base + Vector3::new(p[0] * c - p[1] * s, p[0] * s + p[1] * c, -p[2]);
+            let px = optics.model.project_to_image(pose, &world).ok()?;
+            out.push((px.u, px.v));
+        }
+        Some(out)
+    };
+    let mut part = |pts: Vec<[f64; 3]>, color: [u8; 3], alpha: f32| {
+        if let Some(px) = to_px(&pts) {
+            canvas.fill_hull(&px, color, alpha);
+        }
+    };
+    let (l, w, h) = (o.length_m, o.width_m, o.height_m);
+    let pal = o.palette as usize;
+    match o.class {
+        ObjectClass::Swimmer => {
+            // Submerged body trailing behind, seen through the water.
+            part(ring(-0.7, 0.0, 0.7, 0.22, -0.15, 10), [18, 40, 45], 0.45);
+            if o.lifejacket {
+                let mut vest = ring(-0.05, 0.0, l * 0.45, w * 0.5, 0.0, 12);
+                vest.extend(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.14, 12));
+                part(vest, VIVID[pal % VIVID.len()], 1.0);
+            } else {
+                part(
+                    ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.03, 10),
+                    [40, 45, 50],
+                    0.9,
+                );
+            }
+            let mut head = ring(l * 0.3, 0.0, 0.13, 0.12, 0.08, 8);
+            head.extend(ring(l * 0.3, 0.0, 0.12, 0.11, h, 8));
+            part(head, HEADS[pal % HEADS.len()], 1.0);
+        }
+        ObjectClass::Boat | ObjectClass::Jetski => {
+            if o.speed_mps > 0.8 {
+                // Kelvin wake: two foam arms at ~19.5 deg behind the stern.
+                let len = (o.speed_mps * 1.5).min(18.0);
+                let spread = len * 0.35;
+                for side in [-1.0, 1.0] {
+                    part(
+                        vec![
+                            [-l * 0.45, side * w * 0.3, 0.0],
+                            [-l * 0.5 - len, side * (w * 0.5 + spread), 0.0],
+                            [-l * 0.5 - len, side * (w * 0.5 + spread * 0.8), 0.0],
+                        ],
+                        [225, 235, 235],
+                        0.35,
+                    );
+                }
+                part(
+                    vec![
+                        [-l * 0.5, w * 0.35, 0.0],
+                        [-l * 0.5, -w * 0.35, 0.0],
+                        [-l * 0.5 - len * 0.6, 0.0, 0.0],
+                    ],
+                    [210, 225, 228],
+                    0.3,
+                );
+            }
+            let deck = if o.class == ObjectClass::Boat {
+                h * 0.45
+            } else {
+                0.5
+            };
+            let outline = |up: f64, inset: f64| {
+                vec![
+                    [-l * 0.5 * inset, -w * 0.5 * inset, up],
+                    [-l * 0.5 * inset, w * 0.5 * inset, up],
+                    [l * 0.2 * inset, w * 0.5 * inset, up],
+                    [l * 0.5 * inset, 0.0, up],
+                    [l * 0.2 * inset, -w * 0.5 * inset, up],
+                ]
+            };
+            let hull_c = HULLS[pal % HULLS.len()];
+            let mut hull = outline(0.0, 1.0);
+            hull.extend(outline(deck, 1.0));
+            part(
+                hull,
+                [hull_c[0] / 2 + 20, hull_c[1] / 2 + 20, hull_c[2] / 2 + 20],
+                1.0,
+            );
+            part(outline(deck, 0.92), hull_c, 1.0);
+            if o.class == ObjectClass::Boat {
+                let mut cabin = Vec::new();
+                for up in [deck, h] {
+                    cabin.extend([
+                        [-l * 0.3, -w * 0.3, up],
+                        [-l * 0.3, w * 0.3, up],
+                        [l * 0.05, w * 0.3, up],
+                        [l * 0.05, -w * 0.3, up],
+                    ]);
+                }
+                part(cabin, [120, 130, 140], 1.0);
+                part(
+                    vec![
+                        [-l * 0.3, -w * 0.3, h],
+                        [-l * 0.3, w * 0.3, h],
+                        [l * 0.05, w * 0.3, h],
+                        [l * 0.05, -w * 0.3, h],
+                    ],
+                    [215, 218, 220],
+                    1.0,
+                );
+            } else {
+                let mut rider = ring(-0.3, 0.0, 0.25, 0.22, deck, 8);
+                rider.extend(ring(-0.3, 0.0, 0.2, 0.18, h, 8));
+                part(rider, [25, 25, 30], 1.0);
+            }
+        }
+        ObjectClass::Buoy => {
+            let mut body = ring(0.0, 0.0, l * 0.5, w * 0.5, 0.0, 14);
+            body.extend(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14));
+            let col = VIVID[pal % 3];
+            part(
+                body,
+                [col[0] / 2 + 10, col[1] / 2 + 10, col[2] / 2 + 10],
+                1.0,
+            );
+            part(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14), col, 1.0);
+        }
+        ObjectClass::LifeSavingAppliance => {
+            let col = VIVID[pal % VIVID.len()];
+            let mut outer = ring(0.0, 0.0, l * 0.5, w * 0.5, 0.0, 16);
+            outer.extend(ring(0.0, 0.0, l * 0.5, w * 0.5, h, 16));
+            part(outer, col, 1.0);
+            part(ring(0.0, 0.0, l * 0.27, w * 0.27, h, 12), [20, 55, 70], 0.7);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn homography_fit_matches_project_to_sea() {
+        let s = Scenario::load("calm_baseline").unwrap();
+        let optics = Optics::new(&s).unwrap();
+        let world = World::new(s.clone(), 1);
+        let r = Renderer::new(&s, 1);
+        let pose = optics.pose(&world.truth(10.0));
+        let hm = r.image_to_sea(&optics, &pose).unwrap();
+        for (u, v) in [
+            (100.0, 500.0),
+            (640.0, 360.0),
+            (1200.0, 700.0),
+            (10.0, 250.0),
+        ] {
+            let p = optics
+                .model
+                .project_to_sea(&pose, &optics.sea, Pixel::new(u, v))
+                .unwrap();
+            let q = hm * Vector3::new(u, v, 1.0);
+            assert!(q.z > 0.0);
+            assert!((q.x / q.z - p.x).abs() < 1e-6 && (q.y / q.z - p.y).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn hull_of_square() {
+        let h = convex_hull(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.5, 0.5)]);
+        assert_eq!(h.len(), 4);
+        assert!((polygon_area(&h).abs() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,946 @@
+//! Scenario files: the TOML schema, loading with field-naming errors, validation and the
+//! named scenarios shipped in `sim/scenarios/` (embedded in the binary).
+//!
+//! The schema is documented field by field in `sim/README.md`; every struct here denies
+//! unknown fields so that a typo is an error that names the field rather than a silently
+//! ignored setting.
+
+use serde::Deserialize;
+use std::path::Path;
+
+/// Errors from loading or validating a scenario.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The name is neither a shipped scenario nor an existing file.
+    #[error("unknown scenario `{name}`: not a shipped scenario ({known}) and no such file")]
+    Unknown {
+        /// What the user asked for.
+        name: String,
+        /// The shipped names, comma separated.
+        known: String,
+    },
+    /// The file could not be read.
+    #[error("cannot read scenario file {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed or does not match the schema (the message names the field
+    /// and the line).
+    #[error("invalid scenario {origin}: {message}")]
+    Parse {
+        /// File path or shipped name.
+        origin: String,
+        /// The parser's message, with line, column and field.
+        message: String,
+    },
+    /// A field has a value outside its allowed range.
+    #[error("invalid scenario {origin}: field `{field}`: {problem}")]
+    Invalid {
+        /// File path or shipped name.
+        origin: String,
+        /// Dotted path of the field, e.g. `camera.fps` or `objects[2].count`.
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+}
+
+/// The scenarios shipped with the simulator: (name, TOML text).
+pub const SHIPPED: &[(&str, &str)] = &[
+    (
+        "calm_baseline",
+        include_str!("../scenarios/calm_baseline.toml"),
+    ),
+    ("fast_drone", include_str!("../scenarios/fast_drone.toml")),
+    (
+        "gimbal_swings",
+        include_str!("../scenarios/gimbal_swings.toml"),
+    ),
+    (
+        "leave_and_return",
+        include_str!("../scenarios/leave_and_return.toml"),
+    ),
+    (
+        "high_altitude_tiny",
+        include_str!("../scenarios/high_altitude_tiny.toml"),
+    ),
+    (
+        "swimmer_group",
+        include_str!("../scenarios/swimmer_group.toml"),
+    ),
+    (
+        "boats_crossing",
+        include_str!("../scenarios/boats_crossing.toml"),
+    ),
+    (
+        "camera_desync",
+        include_str!("../scenarios/camera_desync.toml"),
+    ),
+    (
+        "gimbal_pitch_bias",
+        include_str!("../scenarios/gimbal_pitch_bias.toml"),
+    ),
+    (
+        "telemetry_dropout",
+        include_str!("../scenarios/telemetry_dropout.toml"),
+    ),
+    (
+        "mixed_mission_soak",
+        include_str!("../scenarios/mixed_mission_soak.toml"),
+    ),
+];
+
+/// A complete scenario.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name; used as the sequence name in ground truth (`source.folder_name`).
+    pub name: String,
+    /// One line saying what the scenario exercises.
+    #[serde(default)]
+    pub description: String,
+    /// Seed of every random process; `--seed` overrides it.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Length of the simulated flight.
+    pub duration_s: f64,
+    /// Where the local NED frame sits on the Earth.
+    pub origin: Origin,
+    /// The drone's path, speed and altitude.
+    pub drone: Drone,
+    /// The gimbal program.
+    #[serde(default)]
+    pub gimbal: Gimbal,
+    /// The camera.
+    #[serde(default)]
+    pub camera: Camera,
+    /// Sea state and lighting.
+    #[serde(default)]
+    pub sea: Sea,
+    /// Groups of objects on the water.
+    #[serde(default)]
+    pub objects: Vec<ObjectGroup>,
+    /// Timed changes to objects (class changes).
+    #[serde(default)]
+    pub events: Vec<Event>,
+    /// Errors injected into the metadata the autopilot reports.
+    #[serde(default)]
+    pub faults: Faults,
+    /// How the autopilot reports things.
+    #[serde(default)]
+    pub telemetry: Telemetry,
+    /// Parameters of the detection simulator.
+    #[serde(default)]
+    pub detector: Detector,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// The home position, which is also the origin of local NED and sits on the waterline.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Origin {
+    /// Latitude of home.
+    pub lat_deg: f64,
+    /// Longitude of home.
+    pub lon_deg: f64,
+    /// Altitude of home (= water level) above mean sea level.
+    #[serde(default)]
+    pub alt_amsl_m: f64,
+    /// UTC time of the start of the scenario, seconds since the Unix epoch (SYSTEM_TIME,
+    /// `date_time` in the ground truth).
+    #[serde(default = "default_start_unix")]
+    pub start_unix_s: f64,
+}
+
+fn default_start_unix() -> f64 {
+    // 2024-06-01T12:00:00Z
+    1_717_243_200.0
+}
+
+/// The drone: path, speed and altitude profile.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Drone {
+    /// Cruise speed over ground when no `speed_profile` is given.
+    #[serde(default = "default_speed")]
+    pub speed_mps: f64,
+    /// Optional piecewise-linear speed profile: `[[t_s, speed_mps], ...]`.
+    #[serde(default)]
+    pub speed_profile: Vec<[f64; 2]>,
+    /// Height above the water when no `altitude_profile` is given.
+    #[serde(default = "default_altitude")]
+    pub altitude_m: f64,
+    /// Optional piecewise-linear altitude profile: `[[t_s, altitude_m], ...]`.
+    #[serde(default)]
+    pub altitude_profile: Vec<[f64; 2]>,
+    /// Largest yaw rate of the vehicle; heading changes at corners are limited to it.
+    #[serde(default = "default_yaw_rate")]
+    pub max_yaw_rate_deg_s: f64,
+    /// The horizontal path.
+    pub path: Path2d,
+}
+
+fn default_speed() -> f64 {
+    5.0
+}
+fn default_altitude() -> f64 {
+    30.0
+}
+fn default_yaw_rate() -> f64 {
+    60.0
+}
+
+/// The drone's horizontal path in local north/east metres.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Path2d {
+    /// Stay at one point, facing `heading_deg`.
+    Hover {
+        /// Position `[north_m, east_m]`.
+        at_ne_m: [f64; 2],
+        /// Vehicle heading.
+        #[serde(default)]
+        heading_deg: f64,
+    },
+    /// Fly a polyline; at its end, hover (or start over when `looped`).
+    Waypoints {
+        /// Points `[[north_m, east_m], ...]` (at least two).
+        points_ne_m: Vec<[f64; 2]>,
+        /// Return to the first point and repeat.
+        #[serde(default)]
+        looped: bool,
+    },
+    /// Circle a point.
+    Loiter {
+        /// Centre `[north_m, east_m]`.
+        center_ne_m: [f64; 2],
+        /// Radius of the circle.
+        radius_m: f64,
+        /// Direction seen from above.
+        #[serde(default = "default_true")]
+        clockwise: bool,
+    },
+    /// A lawnmower (boustrophedon) search pattern.
+    Lawnmower {
+        /// Start of the first leg `[north_m, east_m]`.
+        start_ne_m: [f64; 2],
+        /// Direction of the first leg.
+        heading_deg: f64,
+        /// Length of every leg.
+        leg_length_m: f64,
+        /// Distance between legs (to the right of the first leg's direction).
+        spacing_m: f64,
+        /// Number of legs.
+        legs: u32,
+    },
+}
+
+fn default_true() -> bool {
+    true
+}
+
+/// Which way a yaw angle is referenced.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum YawFrame {
+    /// Relative to the vehicle's heading (gimbal "follow" mode).
+    #[default]
+    Vehicle,
+    /// Relative to north (gimbal "lock" mode).
+    Earth,
+}
+
+/// The gimbal program. Pitch is degrees below the horizon (90 = nadir), stabilised.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Gimbal {
+    /// `fixed`, `sweep` (slow sinusoidal pan) or `swings` (sudden jumps at high rate).
+    pub mode: GimbalMode,
+    /// Mean pitch below the horizon.
+    pub pitch_deg: f64,
+    /// Mean yaw, relative to the vehicle or to north per `yaw_reference`.
+    pub yaw_deg: f64,
+    /// How the gimbal holds yaw.
+    pub yaw_reference: YawFrame,
+    /// Sweep: yaw amplitude either side of `yaw_deg`.
+    pub sweep_yaw_amplitude_deg: f64,
+    /// Sweep: pitch amplitude either side of `pitch_deg`.
+    pub sweep_pitch_amplitude_deg: f64,
+    /// Sweep: period of one full back-and-forth.
+    pub sweep_period_s: f64,
+    /// Swings: seconds between sudden moves.
+    pub swing_interval_s: f64,
+    /// Swings: largest yaw offset of a move target.
+    pub swing_yaw_amplitude_deg: f64,
+    /// Swings: largest pitch offset of a move target.
+    pub swing_pitch_amplitude_deg: f64,
+    /// Swings: slew rate while moving.
+    pub swing_rate_deg_s: f64,
+}
+
+impl Default for Gimbal {
+    fn default() -> Self {
+        Self {
+            mode: GimbalMode::Fixed,
+            pitch_deg: 45.0,
+            yaw_deg: 0.0,
+            yaw_reference: YawFrame::Vehicle,
+            sweep_yaw_amplitude_deg: 30.0,
+            sweep_pitch_amplitude_deg: 0.0,
+            sweep_period_s: 40.0,
+            swing_interval_s: 6.0,
+            swing_yaw_amplitude_deg: 60.0,
+            swing_pitch_amplitude_deg: 15.0,
+            swing_rate_deg_s: 150.0,
+        }
+    }
+}
+
+/// Gimbal program kinds.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum GimbalMode {
+    /// Hold `pitch_deg` / `yaw_deg`.
+    Fixed,
+    /// Sinusoidal pan (and optionally tilt).
+    Sweep,
+    /// Hold, then jump to a random offset at `swing_rate_deg_s`, repeatedly.
+    Swings,
+}
+
+/// The camera (pinhole, no distortion; intrinsics from the horizontal FOV).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Camera {
+    /// Image width.
+    pub width_px: u32,
+    /// Image height.
+    pub height_px: u32,
+    /// Horizontal field of view.
+    pub hfov_deg: f64,
+    /// Frame rate.
+    pub fps: f64,
+    /// Time from exposure to the frame being available to the consumer.
+    pub capture_latency_ms: f64,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            width_px: 1280,
+            height_px: 720,
+            hfov_deg: 70.0,
+            fps: 30.0,
+            capture_latency_ms: 40.0,
+        }
+    }
+}
+
+/// Sea state and lighting.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Sea {
+    /// Wave contrast, 0 (flat) to about 2 (rough).
+    pub wave_height_m: f64,
+    /// Dominant wavelength.
+    pub wave_length_m: f64,
+    /// Direction the waves travel towards (bearing).
+    pub wave_direction_deg: f64,
+    /// Phase speed of the waves.
+    pub wave_speed_mps: f64,
+    /// Sun elevation above the horizon.
+    pub sun_elevation_deg: f64,
+    /// Sun bearing.
+    pub sun_azimuth_deg: f64,
+    /// Strength of sun glint, 0 to 1.
+    pub glint: f64,
+    /// Surface current `[north, east]` carrying swimmers, buoys' drift aside, and appliances.
+    pub current_ne_mps: [f64; 2],
+    /// Base sea colour, RGB.
+    pub color_rgb: [u8; 3],
+}
+
+impl Default for Sea {
+    fn default() -> Self {
+        Self {
+            wave_height_m: 0.5,
+            wave_length_m: 6.0,
+            wave_direction_deg: 60.0,
+            wave_speed_mps: 1.5,
+            sun_elevation_deg: 45.0,
+            sun_azimuth_deg: 180.0,
+            glint: 0.6,
+            current_ne_mps: [0.0, 0.0],
+            color_rgb: [22, 70, 92],
+        }
+    }
+}
+
+/// Object classes, with the SeaDronesSee category ids.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum ObjectClass {
+    /// A person in the water (category 1).
+    Swimmer,
+    /// A boat (category 2).
+    Boat,
+    /// A jetski (category 3).
+    Jetski,
+    /// A life ring, life jacket or raft on its own (category 4).
+    LifeSavingAppliance,
+    /// A buoy (category 5).
+    Buoy,
+}
+
+impl ObjectClass {
+    /// The SeaDronesSee / COCO category id.
+    pub fn category_id(self) -> u32 {
+        match self {
+            ObjectClass::Swimmer => 1,
+            ObjectClass::Boat => 2,
+            ObjectClass::Jetski => 3,
+            ObjectClass::LifeSavingAppliance => 4,
+            ObjectClass::Buoy => 5,
+        }
+    }
+
+    /// The SeaDronesSee category name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObjectClass::Swimmer => "swimmer",
+            ObjectClass::Boat => "boat",
+            ObjectClass::Jetski => "jetski",
+            ObjectClass::LifeSavingAppliance => "life_saving_appliances",
+            ObjectClass::Buoy => "buoy",
+        }
+    }
+}
+
+/// A group of objects of one class spawned in one area.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectGroup {
+    /// Their class.
+    pub class: ObjectClass,
+    /// How many.
+    #[serde(default = "default_count")]
+    pub count: u32,
+    /// Centre of the spawn disc `[north_m, east_m]`.
+    pub spawn_center_ne_m: [f64; 2],
+    /// Radius of the spawn disc (uniform).
+    #[serde(default = "default_spawn_radius")]
+    pub spawn_radius_m: f64,
+    /// Speed range `[min, max]` through the water; each object draws its mean speed from it.
+    /// Defaults per class: swimmer 0-1, boat 2-12, jetski 5-15, appliance 0-0.3, buoy 0.
+    #[serde(default)]
+    pub speed_mps: Option<[f64; 2]>,
+    /// Common heading; absent means a random heading per object.
+    #[serde(default)]
+    pub heading_deg: Option<f64>,
+    /// Spread of headings around `heading_deg` (uniform, either side).
+    #[serde(default)]
+    pub heading_spread_deg: f64,
+    /// Random-walk strength, 0 (straight lines) to about 1 (erratic). Swimmers: velocity
+    /// noise; boats: turn-rate noise.
+    #[serde(default = "default_random_walk")]
+    pub random_walk: f64,
+    /// Swimmers only: wearing a colourful life jacket at the start.
+    #[serde(default = "default_true")]
+    pub lifejacket: bool,
+    /// Optional size `[length_m, width_m]` override (defaults per class; boats draw a
+    /// random length of 5-12 m).
+    #[serde(default)]
+    pub size_m: Option<[f64; 2]>,
+}
+
+fn default_count() -> u32 {
+    1
+}
+fn default_spawn_radius() -> f64 {
+    20.0
+}
+fn default_random_walk() -> f64 {
+    0.3
+}
+
+/// A timed change to one object.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Event {
+    /// What happens.
+    pub kind: EventKind,
+    /// Index of the object group in `objects`.
+    pub group: usize,
+    /// Index of the object within the group.
+    #[serde(default)]
+    pub member: u32,
+    /// When.
+    pub at_s: f64,
+    /// For `change_class`: the new class.
+    #[serde(default)]
+    pub to: Option<ObjectClass>,
+}
+
+/// Kinds of events.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum EventKind {
+    /// A swimmer takes off the life jacket: the swimmer loses the colourful vest and a new
+    /// `life_saving_appliance` object (with its own id) appears there and drifts away.
+    RemoveLifejacket,
+    /// The object's class changes to `to` (same id).
+    ChangeClass,
+}
+
+/// Metadata faults: what the autopilot reports differs from the truth by these.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct Faults {
+    /// Constant bias of the vehicle attitude `[roll, pitch, yaw]`.
+    pub attitude_bias_deg: [f64; 3],
+    /// White noise (1 sigma) on each vehicle attitude angle.
+    pub attitude_noise_deg: f64,
+    /// Constant bias of the reported gimbal pitch (positive: reported further below the
+    /// horizon than the truth).
+    pub gimbal_pitch_bias_deg: f64,
+    /// Constant bias of the reported gimbal yaw.
+    pub gimbal_yaw_bias_deg: f64,
+    /// White noise (1 sigma) on the reported gimbal angles.
+    pub gimbal_noise_deg: f64,
+    /// GPS horizontal noise (1 sigma, slowly varying: first-order Gauss-Markov, 5 s).
+    pub gps_noise_m: f64,
+    /// Constant bias of the reported altitude (positive: reported higher).
+    pub altitude_bias_m: f64,
+    /// Telemetry messages describe the state this long before they are sent.
+    pub telemetry_latency_ms: f64,
+    /// Frame timestamps are this much later than the true capture time (camera vs
+    /// telemetry clock desync).
+    pub camera_time_offset_ms: f64,
+    /// Windows `[[start_s, duration_s], ...]` in which the autopilot sends nothing.
+    pub dropouts: Vec<[f64; 2]>,
+}
+
+/// How the autopilot reports.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Telemetry {
+    /// Frame of the yaw in GIMBAL_DEVICE_ATTITUDE_STATUS (flags YAW_IN_EARTH_FRAME or
+    /// YAW_IN_VEHICLE_FRAME).
+    pub gimbal_yaw_frame: YawFrame,
+    /// Relative jitter of message intervals (uniform, either side).
+    pub rate_jitter: f64,
+    /// The autopilot's `time_boot_ms` at the start of the scenario.
+    pub boot_time_s: f64,
+    /// MAVLink system id of the simulated vehicle.
+    pub system_id: u8,
+}
+
+impl Default for Telemetry {
+    fn default() -> Self {
+        Self {
+            gimbal_yaw_frame: YawFrame::Earth,
+            rate_jitter: 0.05,
+            boot_time_s: 120.0,
+            system_id: 1,
+        }
+    }
+}
+
+/// Detection simulator parameters.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Detector {
+    /// Box size (sqrt of area, px) at which half the objects are missed.
+    pub miss_half_size_px: f64,
+    /// Miss probability of large, clear objects.
+    pub miss_floor: f64,
+    /// Box jitter, 1 sigma, as a fraction of the box size.
+    pub jitter_fraction: f64,
+    /// Mean false positives per frame (glint and wave crests).
+    pub false_positives_per_frame: f64,
+    /// Detections below this score are not emitted.
+    pub min_score: f64,
+}
+
+impl Default for Detector {
+    fn default() -> Self {
+        Self {
+            miss_half_size_px: 6.0,
+            miss_floor: 0.03,
+            jitter_fraction: 0.06,
+            false_positives_per_frame: 0.3,
+            min_score: 0.05,
+        }
+    }
+}
+
+impl Scenario {
+    /// Resolves `name_or_path`: a shipped name first, else a file path.
+    pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
+        if let Some((name, text)) = SHIPPED.iter().find(|(n, _)| *n == name_or_path) {
+            return Scenario::from_toml(text, &format!("`{name}` (shipped)"));
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() {
+            return Err(ScenarioError::Unknown {
+                name: name_or_path.to_string(),
+                known: SHIPPED
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Scenario::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Parses and validates TOML text; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+        let scenario: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            origin: origin.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        scenario.validate(origin)?;
+        Ok(scenario)
+    }
+
+    /// Checks ranges and cross-references; the error names the offending field.
+    pub fn validate(&self, origin: &str) -> Result<(), ScenarioError> {
+        let bad = |field: &str, problem: &str| {
+            Err(ScenarioError::Invalid {
+                origin: origin.to_string(),
+                field: field.to_string(),
+                problem: problem.to_string(),
+            })
+        };
+        let finite = |v: f64| v.is_finite();
+        if !(finite(self.duration_s) && self.duration_s > 0.0 && self.duration_s <= 86_400.0) {
+            return bad("duration_s", "must be in (0, 86400]");
+        }
+        if !(finite(self.origin.lat_deg) && self.origin.lat_deg.abs() <= 89.0) {
+            return bad("origin.lat_deg", "must be within [-89, 89]");
+        }
+        if !(finite(self.origin.lon_deg) && self.origin.lon_deg.abs() <= 180.0) {
+            return bad("origin.lon_deg", "must be within [-180, 180]");
+        }
+        if !finite(self.origin.alt_amsl_m) || !finite(self.origin.start_unix_s) {
+            return bad("origin", "values must be finite");
+        }
+        let d = &self.drone;
+        if !(finite(d.speed_mps) && (0.0..=40.0).contains(&d.speed_mps)) {
+            return bad("drone.speed_mps", "must be within [0, 40]");
+        }
+        if !(finite(d.altitude_m) && (1.0..=2000.0).contains(&d.altitude_m)) {
+            return bad("drone.altitude_m", "must be within [1, 2000]");
+        }
+        if !(finite(d.max_yaw_rate_deg_s) && d.max_yaw_rate_deg_s > 0.0) {
+            return bad("drone.max_yaw_rate_deg_s", "must be > 0");
+        }
+        check_profile(&d.speed_profile, 0.0, 40.0).or_else(|p| bad("drone.speed_profile", &p))?;
+        check_profile(&d.altitude_profile, 1.0, 2000.0)
+            .or_else(|p| bad("drone.altitude_profile", &p))?;
+        match &d.path {
+            Path2d::Hover {
+                at_ne_m,
+                heading_deg,
+            } => {
+                if !at_ne_m.iter().all(|v| finite(*v)) || !finite(*heading_deg) {
+                    return bad("drone.path", "values must be finite");
+                }
+            }
+            Path2d::Waypoints { points_ne_m, .. } => {
+                if points_ne_m.len() < 2 {
+                    return bad("drone.path.points_ne_m", "needs at least two points");
+                }
+                if !points_ne_m.iter().flatten().all(|v| finite(*v)) {
+                    return bad("drone.path.points_ne_m", "values must be finite");
+                }
+            }
+            Path2d::Loiter {
+                center_ne_m,
+                radius_m,
+                ..
+            } => {
+                if !(finite(*radius_m) && *radius_m >= 1.0) {
+                    return bad("drone.path.radius_m", "must be >= 1");
+                }
+                if !center_ne_m.iter().all(|v| finite(*v)) {
+                    return bad("drone.path.center_ne_m", "values must be finite");
+                }
+            }
+            Path2d::Lawnmower {
+                start_ne_m,
+                heading_deg,
+                leg_length_m,
+                spacing_m,
+                legs,
+            } => {
+                if !(finite(*leg_length_m) && *leg_length_m > 1.0) {
+                    return bad("drone.path.leg_length_m", "must be > 1");
+                }
+                if !(finite(*spacing_m) && *spacing_m > 0.0) {
+                    return bad("drone.path.spacing_m", "must be > 0");
+                }
+                if *legs == 0 || *legs > 1000 {
+                    return bad("drone.path.legs", "must be within [1, 1000]");
+                }
+                if !start_ne_m.iter().all(|v| finite(*v)) || !finite(*heading_deg) {
+                    return bad("drone.path", "values must be finite");
+                }
+            }
+        }
+        let g = &self.gimbal;
+        if !(finite(g.pitch_deg) && (0.0..=90.0).contains(&g.pitch_deg)) {
+            return bad(
+                "gimbal.pitch_deg",
+                "must be within [0, 90] (below the horizon)",
+            );
+        }
+        if g.mode == GimbalMode::Sweep && !(finite(g.sweep_period_s) && g.sweep_period_s > 0.1) {
+            return bad("gimbal.sweep_period_s", "must be > 0.1");
+        }
+        if g.mode == GimbalMode::Swings {
+            if !(finite(g.swing_interval_s) && g.swing_interval_s > 0.1) {
+                return bad("gimbal.swing_interval_s", "must be > 0.1");
+            }
+            if !(finite(g.swing_rate_deg_s) && g.swing_rate_deg_s > 0.0) {
+                return bad("gimbal.swing_rate_deg_s", "must be > 0");
+            }
+        }
+        let c = &self.camera;
+        if !(16..=7680).contains(&c.width_px) {
+            return bad("camera.width_px", "must be within [16, 7680]");
+        }
+        if !(16..=4320).contains(&c.height_px) {
+            return bad("camera.height_px", "must be within [16, 4320]");
+        }
+        if !(finite(c.hfov_deg) && c.hfov_deg > 1.0 && c.hfov_deg < 170.0) {
+            return bad("camera.hfov_deg", "must be within (1, 170)");
+        }
+        if !(finite(c.fps) && c.fps > 0.0 && c.fps <= 240.0) {
+            return bad("camera.fps", "must be within (0, 240]");
+        }
+        if !(finite(c.capture_latency_ms) && c.capture_latency_ms >= 0.0) {
+            return bad("camera.capture_latency_ms", "must be >= 0");
+        }
+        let s = &self.sea;
+        if !(finite(s.wave_length_m) && s.wave_length_m > 0.1) {
+            return bad("sea.wave_length_m", "must be > 0.1");
+        }
+        if !(finite(s.wave_height_m) && s.wave_height_m >= 0.0) {
+            return bad("sea.wave_height_m", "must be >= 0");
+        }
+        if !(finite(s.sun_elevation_deg) && (0.0..=90.0).contains(&s.sun_elevation_deg)) {
+            return bad("sea.sun_elevation_deg", "must be within [0, 90]");
+        }
+        if !(finite(s.glint) && (0.0..=1.0).contains(&s.glint)) {
+            return bad("sea.glint", "must be within [0, 1]");
+        }
+        let total: u64 = self.objects.iter().map(|o| u64::from(o.count)).sum();
+        if total > 10_000 {
+            return bad("objects", "more than 10000 objects in total");
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            if let Some([lo, hi]) = o.speed_mps {
+                if !(finite(lo) && finite(hi) && 0.0 <= lo && lo <= hi && hi <= 40.0) {
+                    return bad(
+                        &format!("objects[{i}].speed_mps"),
+                        "must be [min, max] with 0 <= min <= max <= 40",
+                    );
+                }
+            }
+            if !(finite(o.spawn_radius_m) && o.spawn_radius_m >= 0.0) {
+                return bad(&format!("objects[{i}].spawn_radius_m"), "must be >= 0");
+            }
+            if !(finite(o.random_walk) && (0.0..=5.0).contains(&o.random_walk)) {
+                return bad(
+                    &format!("objects[{i}].random_walk"),
+                    "must be within [0, 5]",
+                );
+            }
+            if let Some([l, w]) = o.size_m {
+                if !(finite(l) && finite(w) && l > 0.05 && w > 0.05 && l < 100.0 && w < 100.0) {
+                    return bad(
+                        &format!("objects[{i}].size_m"),
+                        "must be within (0.05, 100)",
+                    );
+                }
+            }
+        }
+        for (i, e) in self.events.iter().enumerate() {
+            let Some(group) = self.objects.get(e.group) else {
+                return bad(
+                    &format!("events[{i}].group"),
+                    &format!(
+                        "no object group {} (there are {})",
+                        e.group,
+                        self.objects.len()
+                    ),
+                );
+            };
+            if e.member >= group.count {
+                return bad(
+                    &format!("events[{i}].member"),
+                    &format!("group {} has only {} objects", e.group, group.count),
+                );
+            }
+            if !(finite(e.at_s) && e.at_s >= 0.0) {
+                return bad(&format!("events[{i}].at_s"), "must be >= 0");
+            }
+            match e.kind {
+                EventKind::RemoveLifejacket if group.class != ObjectClass::Swimmer => {
+                    return bad(
+                        &format!("events[{i}].kind"),
+                        "remove_lifejacket needs a swimmer group",
+                    );
+                }
+                EventKind::ChangeClass if e.to.is_none() => {
+                    return bad(&format!("events[{i}].to"), "change_class needs `to`");
+                }
+                _ => {}
+            }
+        }
+        let f = &self.faults;
+        for (j, w) in f.dropouts.iter().enumerate() {
+            if !(finite(w[0]) && finite(w[1]) && w[0] >= 0.0 && w[1] > 0.0) {
+                return bad(
+                    &format!("faults.dropouts[{j}]"),
+                    "must be [start_s >= 0, duration_s > 0]",
+                );
+            }
+        }
+        if !(finite(f.telemetry_latency_ms) && f.telemetry_latency_ms >= 0.0) {
+            return bad("faults.telemetry_latency_ms", "must be >= 0");
+        }
+        let noise = [
+            ("faults.attitude_noise_deg", f.attitude_noise_deg),
+            ("faults.gimbal_noise_deg", f.gimbal_noise_deg),
+            ("faults.gps_noise_m", f.gps_noise_m),
+        ];
+        for (name, v) in noise {
+            if !(finite(v) && v >= 0.0) {
+                return bad(name, "must be >= 0");
+            }
+        }
+        let t = &self.telemetry;
+        if !(finite(t.rate_jitter) && (0.0..0.5).contains(&t.rate_jitter)) {
+            return bad("telemetry.rate_jitter", "must be within [0, 0.5)");
+        }
+        if !(finite(t.boot_time_s) && t.boot_time_s >= 0.0) {
+            return bad("telemetry.boot_time_s", "must be >= 0");
+        }
+        let det = &self.detector;
+        if !(finite(det.miss_floor) && (0.0..=1.0).contains(&det.miss_floor)) {
+            return bad("detector.miss_floor", "must be within [0, 1]");
+        }
+        if !(finite(det.false_positives_per_frame) && det.false_positives_per_frame >= 0.0) {
+            return bad("detector.false_positives_per_frame", "must be >= 0");
+        }
+        Ok(())
+    }
+
+    /// Number of frames in the scenario.
+    pub fn frame_count(&self) -> u64 {
+        // Saturating float->int cast; validated duration and fps keep it small.
+        (self.duration_s * self.camera.fps).floor() as u64
+    }
+}
+
+fn check_profile(profile: &[[f64; 2]], lo: f64, hi: f64) -> Result<(), String> {
+    let mut last_t = f64::NEG_INFINITY;
+    for (i, [t, v]) in profile.iter().enumerate() {
+        if !t.is_finite() || !v.is_finite() {
+            return Err(format!("entry {i}: values must be finite"));
+        }
+        if *t <= last_t {
+            return Err(format!("entry {i}: times must increase"));
+        }
+        if *v < lo || *v > hi {
+            return Err(format!("entry {i}: value {v} outside [{lo}, {hi}]"));
+        }
+        last_t = *t;
+    }
+    Ok(())
+}
+
+/// Piecewise-linear lookup in a `[[t, value], ...]` profile, holding the end values.
+pub fn profile_value(profile: &[[f64; 2]], default: f64, t: f64) -> f64 {
+    let Some(first) = profile.first() else {
+        return default;
+    };
+    if t <= first[0] {
+        return first[1];
+    }
+    for w in profile.windows(2) {
+        let ([t0, v0], [t1, v1]) = (w[0], w[1]);
+        if t <= t1 {
+            return v0 + (v1 - v0) * (t - t0) / (t1 - t0);
+        }
+    }
+    profile.last().map_or(default, |l| l[1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_shipped_scenario_loads() {
+        for (name, _) in SHIPPED {
+            let s = Scenario::load(name).unwrap();
+            assert_eq!(&s.name, name);
+        }
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let text = SHIPPED[0].1.replace("[camera]", "[camera]\nfsp = 3");
+        let err = Scenario::from_toml(&text, "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("fsp"), "{err}");
+        assert!(err.contains("x.toml"), "{err}");
+    }
+
+    #[test]
+    fn out_of_range_field_is_named() {
+        let text = SHIPPED[0].1.replace("fps = 30", "fps = -2");
+        let err = Scenario::from_toml(&text, "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("camera.fps"), "{err}");
+    }
+
+    #[test]
+    fn invalid_toml_reports_line() {
+        let err = Scenario::from_toml("name = \"a\"\nduration_s = = 3\n", "y.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("line 2"), "{err}");
+    }
+
+    #[test]
+    fn unknown_name_lists_shipped() {
+        let err = Scenario::load("no_such_scenario").unwrap_err().to_string();
+        assert!(err.contains("calm_baseline"), "{err}");
+    }
+
+    #[test]
+    fn profile_interpolates_and_holds() {
+        let p = [[0.0, 1.0], [10.0, 3.0]];
+        assert_eq!(profile_value(&p, 9.0, -1.0), 1.0);
+        assert_eq!(profile_value(&p, 9.0, 5.0), 2.0);
+        assert_eq!(profile_value(&p, 9.0, 20.0), 3.0);
+        assert_eq!(profile_value(&[], 9.0, 5.0), 9.0);
+    }
+}

@@ -1,0 +1,342 @@
+//! End-to-end tests of the `mgmot-sim` binary: listing, bad input, determinism of the
+//! ground truth, and the output formats.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("mgmot-sim runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_clean_failure(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert!(!o.status.success(), "expected failure, stderr: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert!(err.contains(needle), "`{needle}` not in: {err}");
+}
+
+#[test]
+fn lists_the_shipped_scenarios() {
+    let o = sim(&["list"]);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    for name in [
+        "calm_baseline",
+        "fast_drone",
+        "gimbal_swings",
+        "leave_and_return",
+        "high_altitude_tiny",
+        "swimmer_group",
+        "boats_crossing",
+        "camera_desync",
+        "gimbal_pitch_bias",
+        "telemetry_dropout",
+        "mixed_mission_soak",
+    ] {
+        assert!(out.contains(name), "{name} missing from:\n{out}");
+    }
+}
+
+#[test]
+fn help_documents_every_mode() {
+    let o = sim(&["--help"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    for word in [
+        "run",
+        "render",
+        "detections",
+        "list",
+        "udpout",
+        "Unix socket",
+    ] {
+        assert!(out.contains(word), "{word} missing from --help:\n{out}");
+    }
+}
+
+#[test]
+fn unknown_scenario_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x");
+    let o = sim(&[
+        "render",
+        "-s",
+        "no_such_scenario",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "unknown scenario `no_such_scenario`");
+}
+
+#[test]
+fn invalid_toml_names_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "name = \"x\"\nduration_s = 10\n[origin]\nlat_deg = 1\nlon_deg = 2\n[drone]\nsped_mps = 3\n[drone.path]\nkind = \"hover\"\nat_ne_m = [0, 0]\n").unwrap();
+    let o = sim(&[
+        "detections",
+        "-s",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.path().join("d.json").to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "sped_mps");
+    assert_clean_failure(&o, "bad.toml");
+    assert_clean_failure(&o, "line 7");
+
+    std::fs::write(&bad, "name = \"x\"\nduration_s = [\n").unwrap();
+    let o = sim(&[
+        "render",
+        "-s",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "bad.toml");
+}
+
+#[test]
+fn bad_addresses_are_clear_errors() {
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--mavlink",
+        "carrier-pigeon:1",
+    ]);
+    assert_clean_failure(&o, "invalid --mavlink address");
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "tcp:1",
+    ]);
+    assert_clean_failure(&o, "invalid --frames");
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "unix:/nonexistent-dir/x.sock",
+    ]);
+    assert_clean_failure(&o, "cannot listen on /nonexistent-dir/x.sock");
+}
+
+#[test]
+fn unreachable_tcp_peer_is_retried_not_fatal() {
+    // Nothing listens on this port: the link retries in the background and the run ends
+    // normally.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let addr = format!("tcpout:127.0.0.1:{port}");
+    let o = sim(&[
+        "-v",
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "1.5",
+        "--mavlink",
+        &addr,
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("retrying"), "{err}");
+}
+
+fn render_truth(dir: &Path, seed: &str) {
+    let o = sim(&[
+        "render",
+        "-s",
+        "swimmer_group",
+        "--seed",
+        seed,
+        "--duration-s",
+        "8",
+        "--format",
+        "none",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn same_seed_gives_byte_identical_ground_truth() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let c = tempfile::tempdir().unwrap();
+    render_truth(a.path(), "42");
+    render_truth(b.path(), "42");
+    render_truth(c.path(), "43");
+    for f in ["gt/gt.txt", "world.csv", "camera.csv", "annotations.json"] {
+        let x = std::fs::read(a.path().join(f)).unwrap();
+        let y = std::fs::read(b.path().join(f)).unwrap();
+        assert!(!x.is_empty(), "{f} empty");
+        assert_eq!(x, y, "{f} differs between identical runs");
+    }
+    let x = std::fs::read(a.path().join("gt/gt.txt")).unwrap();
+    let z = std::fs::read(c.path().join("gt/gt.txt")).unwrap();
+    assert_ne!(x, z, "another seed should move the swimmers");
+}
+
+#[test]
+fn seadronessee_json_has_the_dataset_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    render_truth(dir.path(), "1");
+    let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let img = &j["images"][0];
+    for key in [
+        "latitude",
+        "longitude",
+        "height_above_takeoff(meter)",
+        "speed(m/s)",
+        "xspeed(m/s)",
+        "yspeed(m/s)",
+        "zspeed(m/s)",
+        "compass_heading(degrees)",
+        "gimbal_heading(degrees)",
+        "gimbal_pitch(degrees)",
+        "datetime(utc)",
+    ] {
+        assert!(img["meta"].get(key).is_some(), "meta.{key} missing");
+    }
+    assert_eq!(img["source"]["folder_name"], "swimmer_group");
+    assert!(j["annotations"][0]["track_id"].as_u64().unwrap() >= 1);
+    let cats: Vec<(u64, String)> = j["categories"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["id"].as_u64().unwrap(),
+                c["name"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert!(cats.contains(&(1, "swimmer".into())) && cats.contains(&(5, "buoy".into())));
+    // MOT gt: frame,id,x,y,w,h,1,class,visibility
+    let gt = std::fs::read_to_string(dir.path().join("gt/gt.txt")).unwrap();
+    let first: Vec<&str> = gt.lines().next().unwrap().split(',').collect();
+    assert_eq!(first.len(), 9);
+    assert_eq!(first[6], "1");
+    // The life jacket dropped at 20 s does not exist in an 8 s run; the swimmers do.
+    assert!(gt.lines().all(|l| l.split(',').nth(7) == Some("1")));
+}
+
+#[test]
+fn detections_in_both_formats() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("det.json");
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "--duration-s",
+        "5",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dets: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let dets = dets.as_array().unwrap();
+    assert!(!dets.is_empty());
+    for d in dets {
+        let s = d["score"].as_f64().unwrap();
+        assert!(s > 0.0 && s < 1.0);
+        assert_eq!(d["bbox"].as_array().unwrap().len(), 4);
+    }
+    assert!(dir.path().join("det_gt/gt/gt.txt").exists());
+    let txt = dir.path().join("det.txt");
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "--duration-s",
+        "5",
+        "-o",
+        txt.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines = std::fs::read_to_string(&txt).unwrap();
+    assert_eq!(
+        lines.lines().count(),
+        dets.len(),
+        "same seed, same detections in both formats"
+    );
+    assert!(lines.lines().all(|l| l.split(',').count() == 10));
+    let o = sim(&[
+        "detections",
+        "-s",
+        "boats_crossing",
+        "-o",
+        dir.path().join("d.csv").to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "must end in .json");
+}
+
+#[test]
+fn renders_png_and_jpg_images() {
+    let dir = tempfile::tempdir().unwrap();
+    for fmt in ["png", "jpg"] {
+        let out = dir.path().join(fmt);
+        let o = sim(&[
+            "render",
+            "-s",
+            "calm_baseline",
+            "--duration-s",
+            "1",
+            "--every",
+            "10",
+            "--width",
+            "320",
+            "--height",
+            "180",
+            "--format",
+            fmt,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let img = image::open(out.join(format!("img1/000011.{fmt}"))).unwrap();
+        assert_eq!((img.width(), img.height()), (320, 180));
+        assert!(out.join("seqinfo.ini").exists());
+    }
+}
+
+#[test]
+fn missing_v4l2_device_is_a_clear_error() {
+    let o = sim(&[
+        "run",
+        "-s",
+        "calm_baseline",
+        "--duration-s",
+        "0.2",
+        "--frames",
+        "v4l2:/dev/video-does-not-exist",
+    ]);
+    if cfg!(feature = "v4l2") {
+        assert_clean_failure(&o, "no V4L2 device /dev/video-does-not-exist");
+    } else {
+        assert_clean_failure(&o, "`v4l2` cargo feature");
+    }
+}
