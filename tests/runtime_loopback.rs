@@ -2,10 +2,8 @@
 //! decodes what mgmot sends (with the generated dialect), frames over the sim's Unix socket,
 //! detections from the sim's detection mode (the stand-in until the ONNX detector lands).
 //!
-//! Needs `mgmot-sim run` / `detections` (branch wip-sim). The binary is `$MGMOT_SIM_BIN`, or
-//! `target/debug/mgmot-sim` built here with `cargo build -p mgmot-sim`. Ignored until the
-//! simulator is merged into this branch: run with `cargo test --test runtime_loopback --
-//! --ignored`.
+//! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
+//! `cargo build -p mgmot-sim` (a workspace member). Short scenarios in lockstep keep it fast.
 
 use mavlink_core::{MavHeader, MavlinkReader, MavlinkVersion};
 use mgmot::mavlink::dialect::{MavMessage, MavType, MgmotTrackFlags};
@@ -198,7 +196,6 @@ fn truth(dir: &Path) -> Vec<(i64, String, f64, f64)> {
 }
 
 #[test]
-#[ignore = "needs mgmot-sim run/detections (branch wip-sim); run with --ignored once merged"]
 fn calm_baseline_heartbeat_tracks_and_geolocation_error() {
     let (scenario, duration_s) = ("calm_baseline", 12.0);
     let s = setup(scenario, duration_s);
@@ -270,7 +267,6 @@ fn calm_baseline_heartbeat_tracks_and_geolocation_error() {
 }
 
 #[test]
-#[ignore = "needs mgmot-sim run/detections (branch wip-sim); run with --ignored once merged"]
 fn sigterm_stops_cleanly() {
     let (scenario, duration_s) = ("calm_baseline", 60.0);
     let s = setup(scenario, 2.0);
