@@ -5,8 +5,10 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod detect;
+mod check_config;
 mod eval;
 mod geolocate;
+mod run;
 mod track;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
@@ -30,6 +32,10 @@ enum Command {
     Track(track::Args),
     /// Detect swimmers and boats in images with an ONNX model.
     Detect(detect::Args),
+    /// Check a runtime configuration file.
+    CheckConfig(check_config::Args),
+    /// Run the onboard pipeline (MAVLink, frames, detector, tracker, track messages).
+    Run(run::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -41,6 +47,8 @@ pub fn main() -> ExitCode {
         Command::Eval(args) => eval::run(args),
         Command::Track(args) => track::run(args),
         Command::Detect(args) => detect::run(args),
+        Command::CheckConfig(args) => check_config::run(args),
+        Command::Run(args) => run::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

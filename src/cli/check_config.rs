@@ -1,0 +1,57 @@
+//! `mgmot check-config`: load and validate a runtime configuration without running anything.
+
+use clap::Args as ClapArgs;
+use mgmot::config::{Config, FramesConfig};
+use std::path::PathBuf;
+
+/// Check a runtime configuration file (TOML) and print what it sets up.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// The configuration file (see systemd/mgmot.example.toml).
+    file: PathBuf,
+}
+
+/// Runs the subcommand: prints a summary, or fails with every problem found.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = Config::load(&args.file)?;
+    let frames = match &config.frames {
+        FramesConfig::V4l2 {
+            device,
+            pixel_format,
+            width_px,
+            height_px,
+            fps,
+        } => format!(
+            "v4l2 {} {pixel_format} {width_px}x{height_px} @ {fps} fps",
+            device.display()
+        ),
+        FramesConfig::Sim { socket } => format!("simulator socket {}", socket.display()),
+        FramesConfig::Images { directory, fps } => {
+            format!("images in {} @ {fps} fps", directory.display())
+        }
+    };
+    println!("{}: ok", args.file.display());
+    println!(
+        "  mavlink: {} as {}/{}{}",
+        config.mavlink.connection,
+        config.mavlink.system_id,
+        config.mavlink.component_id,
+        if config.mavlink.signing.is_some() {
+            ", signed"
+        } else {
+            ""
+        }
+    );
+    println!("  frames: {frames}");
+    println!(
+        "  outputs: tracks at {} Hz{}, heartbeat at {} Hz",
+        config.outputs.track_rate_hz,
+        if config.outputs.target_absolute {
+            " (+ TARGET_ABSOLUTE)"
+        } else {
+            ""
+        },
+        config.outputs.heartbeat_hz
+    );
+    Ok(())
+}

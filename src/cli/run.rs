@@ -1,0 +1,51 @@
+//! `mgmot run`: the onboard runtime (what flies).
+
+use anyhow::Context;
+use clap::Args as ClapArgs;
+use mgmot::config::Config;
+use mgmot::pipeline::{self, shutdown_signal};
+use std::path::PathBuf;
+
+/// Run the onboard pipeline: MAVLink link, frames, detector, tracker, track messages.
+/// SIGINT / SIGTERM stop it cleanly (exit 0).
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// The configuration file (see systemd/mgmot.example.toml; check it with `mgmot
+    /// check-config`).
+    #[arg(long)]
+    config: PathBuf,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = Config::load(&args.config)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(async move {
+        let (trigger, shutdown) = shutdown_signal();
+        let mut sigterm =
+            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                .context("installing the SIGTERM handler")?;
+        let signals = tokio::spawn(async move {
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT: stopping"),
+                _ = sigterm.recv() => tracing::info!("SIGTERM: stopping"),
+            }
+            trigger.fire();
+        });
+        let stats = pipeline::run(config, shutdown).await?;
+        signals.abort();
+        eprintln!(
+            "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} track messages",
+            stats.frames_captured,
+            stats.frames_processed,
+            stats.frames_without_pose,
+            stats.frames_dropped,
+            stats.track_messages
+        );
+        Ok(())
+    })
+}

@@ -1,0 +1,560 @@
+//! The runtime configuration: one TOML file (`systemd/mgmot.example.toml` documents every key).
+//!
+//! Loading is two steps: TOML parsing with unknown keys rejected (the parser's error names the
+//! line and the key), then [`Config::validate`], whose errors name the dotted key and the
+//! problem.
+
+use crate::geo::PoseNoise;
+use crate::track::TrackerParams;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Default limit on the camera-to-sea distance (m), the geolocator's own default: beyond about
+/// 10 km the flat-sea model and realistic attitude accuracy give no usable position.
+pub const DEFAULT_MAX_RANGE_M: f64 = 10_000.0;
+
+/// Why a configuration cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The IO error.
+        source: std::io::Error,
+    },
+    /// Not valid TOML, an unknown key, or a value of the wrong type.
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (with line, column and key).
+        message: String,
+    },
+    /// Values that parse but cannot work.
+    #[error("{path}: {}", .problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Every problem found.
+        problems: Vec<Problem>,
+    },
+}
+
+/// One invalid value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{key}`: {problem}")]
+pub struct Problem {
+    /// Dotted key, e.g. `mavlink.connection`.
+    pub key: String,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// The MAVLink link to the autopilot (or mavlink-router).
+    pub mavlink: MavlinkConfig,
+    /// How telemetry is turned into a camera pose per frame.
+    #[serde(default)]
+    pub telemetry: TelemetryConfig,
+    /// Where frames come from.
+    pub frames: FramesConfig,
+    /// The camera's optics.
+    #[serde(default)]
+    pub camera: CameraConfig,
+    /// What finds objects in frames.
+    pub detector: DetectorConfig,
+    /// Geolocation noise model and limits.
+    #[serde(default)]
+    pub geolocation: GeolocationConfig,
+    /// What is sent, and how often.
+    #[serde(default)]
+    pub outputs: OutputsConfig,
+    /// Tracker parameters (the paper's values by default).
+    #[serde(default)]
+    pub tracker: TrackerParams,
+}
+
+/// The MAVLink link.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MavlinkConfig {
+    /// `serial:/dev/ttyS0:921600`, `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `tcpin:…`,
+    /// `tcpout:…`.
+    pub connection: String,
+    /// Our system id: the vehicle's, since mgmot is one of its components.
+    #[serde(default = "one")]
+    pub system_id: u8,
+    /// Our component id (191 = MAV_COMP_ID_ONBOARD_COMPUTER).
+    #[serde(default = "onboard_computer")]
+    pub component_id: u8,
+    /// The autopilot's component id (1 = MAV_COMP_ID_AUTOPILOT1), target of the stream
+    /// requests.
+    #[serde(default = "one")]
+    pub autopilot_component_id: u8,
+    /// Rate asked for position, attitude and gimbal messages (Hz); 0 leaves the autopilot's
+    /// own stream rates alone.
+    #[serde(default = "default_stream_rate_hz")]
+    pub stream_rate_hz: f32,
+    /// TIMESYNC requests per second (0 = never; the arrival-time estimate is used instead).
+    #[serde(default = "one_f64")]
+    pub timesync_hz: f64,
+    /// MAVLink 2 signing; absent = no signing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signing: Option<SigningConfig>,
+}
+
+/// MAVLink 2 signing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SigningConfig {
+    /// The 32-byte secret key as 64 hex digits (the same key as the autopilot and GCS).
+    pub key_hex: String,
+    /// Link id put in our signatures.
+    #[serde(default)]
+    pub link_id: u8,
+}
+
+impl SigningConfig {
+    /// The key bytes, if `key_hex` is 64 hex digits.
+    pub fn key(&self) -> Option<[u8; 32]> {
+        let s = self.key_hex.trim();
+        if s.len() != 64 || !s.is_ascii() {
+            return None;
+        }
+        let mut key = [0u8; 32];
+        for (i, b) in key.iter_mut().enumerate() {
+            *b = u8::from_str_radix(&s[2 * i..2 * i + 2], 16).ok()?;
+        }
+        Some(key)
+    }
+}
+
+/// Telemetry -> camera pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TelemetryConfig {
+    /// A frame whose nearest sample of any needed stream is further than this from its
+    /// capture time gets no pose (no geolocation) rather than a stale one (ms).
+    pub max_pose_age_ms: f64,
+    /// Delay from the real exposure to the frame's timestamp (ms); the pose is taken at
+    /// `timestamp - camera_latency_ms`.
+    pub camera_latency_ms: f64,
+    /// Water surface altitude AMSL (m); absent: the home position is at the waterline.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub water_level_amsl_m: Option<f64>,
+    /// Telemetry is reported lost (STATUSTEXT) when no position arrives for this long (ms).
+    pub lost_after_ms: f64,
+    /// Camera hard-mounted to the body instead of on a gimbal: its pitch (deg, negative =
+    /// down) relative to the body; absent: the gimbal's telemetry is used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed_mount_pitch_deg: Option<f64>,
+}
+
+impl Default for TelemetryConfig {
+    fn default() -> Self {
+        Self {
+            max_pose_age_ms: 200.0,
+            camera_latency_ms: 0.0,
+            water_level_amsl_m: None,
+            lost_after_ms: 2000.0,
+            fixed_mount_pitch_deg: None,
+        }
+    }
+}
+
+/// Frame sources.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "source", rename_all = "lowercase", deny_unknown_fields)]
+pub enum FramesConfig {
+    /// A V4L2 capture device.
+    V4l2 {
+        /// Device node, e.g. `/dev/video0`.
+        device: PathBuf,
+        /// `MJPG`, `YUYV` or `NV12`.
+        pixel_format: String,
+        /// Capture width (px).
+        width_px: u32,
+        /// Capture height (px).
+        height_px: u32,
+        /// Frames per second asked of the device.
+        fps: u32,
+    },
+    /// The simulator's Unix-socket frame stream (`mgmot-sim run --frames unix:PATH`).
+    Sim {
+        /// The socket path.
+        socket: PathBuf,
+    },
+    /// Image files of a directory, in name order.
+    Images {
+        /// The directory.
+        directory: PathBuf,
+        /// Frame rate used to time the images.
+        fps: f64,
+    },
+}
+
+/// The camera's optics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraConfig {
+    /// Horizontal field of view (deg), for an ideal pinhole with the principal point at the
+    /// centre.
+    pub hfov_deg: f64,
+}
+
+impl Default for CameraConfig {
+    fn default() -> Self {
+        Self { hfov_deg: 70.0 }
+    }
+}
+
+/// Detectors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum DetectorConfig {
+    /// Replays detections from a COCO results file keyed by frame (the simulator's
+    /// `mgmot-sim detections` output): stands in for the ONNX detector on the bench.
+    Replay {
+        /// COCO results JSON (`[{image_id, category_id, bbox, score}]`).
+        detections: PathBuf,
+        /// The image id of frame index 0 (ids count up by frame index).
+        #[serde(default = "one_u64")]
+        first_image_id: u64,
+    },
+}
+
+/// Geolocation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeolocationConfig {
+    /// Noise of the pose and the boxes, for the position uncertainty.
+    pub noise: PoseNoise,
+    /// Points further than this from the camera are not geolocated (m).
+    pub max_range_m: f64,
+}
+
+impl Default for GeolocationConfig {
+    fn default() -> Self {
+        Self {
+            noise: PoseNoise::default(),
+            max_range_m: DEFAULT_MAX_RANGE_M,
+        }
+    }
+}
+
+/// Outputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputsConfig {
+    /// MGMOT_TRACK messages per confirmed track per second.
+    pub track_rate_hz: f64,
+    /// Also send TARGET_ABSOLUTE for each geolocated track.
+    pub target_absolute: bool,
+    /// HEARTBEATs per second.
+    pub heartbeat_hz: f64,
+}
+
+impl Default for OutputsConfig {
+    fn default() -> Self {
+        Self {
+            track_rate_hz: 2.0,
+            target_absolute: true,
+            heartbeat_hz: 1.0,
+        }
+    }
+}
+
+fn one() -> u8 {
+    1
+}
+fn one_u64() -> u64 {
+    1
+}
+fn one_f64() -> f64 {
+    1.0
+}
+fn onboard_computer() -> u8 {
+    crate::mavlink::COMPONENT_ID
+}
+fn default_stream_rate_hz() -> f32 {
+    50.0
+}
+
+impl Config {
+    /// Reads, parses and validates a file.
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        let config = Config::parse(&text).map_err(|message| ConfigError::Parse {
+            path: path.to_owned(),
+            message,
+        })?;
+        config.validate().map_err(|problems| ConfigError::Invalid {
+            path: path.to_owned(),
+            problems,
+        })?;
+        Ok(config)
+    }
+
+    /// Parses TOML text (no validation).
+    pub fn parse(text: &str) -> Result<Config, String> {
+        toml::from_str(text).map_err(|e| e.to_string())
+    }
+
+    /// Every problem with the values, each naming its key.
+    pub fn validate(&self) -> Result<(), Vec<Problem>> {
+        let mut problems = Vec::new();
+        let mut bad = |key: &str, problem: String| {
+            problems.push(Problem {
+                key: key.to_owned(),
+                problem,
+            })
+        };
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+
+        if let Err(e) = crate::mavlink::parse_connection(&self.mavlink.connection) {
+            bad("mavlink.connection", e.to_string());
+        }
+        if self.mavlink.system_id == 0 {
+            bad("mavlink.system_id", "must be 1..=255".into());
+        }
+        if self.mavlink.component_id == 0 {
+            bad("mavlink.component_id", "must be 1..=255".into());
+        }
+        if !non_negative(f64::from(self.mavlink.stream_rate_hz)) {
+            bad("mavlink.stream_rate_hz", "must be >= 0".into());
+        }
+        if !non_negative(self.mavlink.timesync_hz) {
+            bad("mavlink.timesync_hz", "must be >= 0".into());
+        }
+        if let Some(s) = &self.mavlink.signing {
+            if s.key().is_none() {
+                bad(
+                    "mavlink.signing.key_hex",
+                    format!(
+                        "must be 64 hex digits (32 bytes), got {} characters",
+                        s.key_hex.trim().len()
+                    ),
+                );
+            }
+        }
+        let t = &self.telemetry;
+        if !positive(t.max_pose_age_ms) {
+            bad("telemetry.max_pose_age_ms", "must be > 0".into());
+        }
+        if !non_negative(t.camera_latency_ms) {
+            bad("telemetry.camera_latency_ms", "must be >= 0".into());
+        }
+        if !positive(t.lost_after_ms) {
+            bad("telemetry.lost_after_ms", "must be > 0".into());
+        }
+        if t.water_level_amsl_m.is_some_and(|v| !v.is_finite()) {
+            bad(
+                "telemetry.water_level_amsl_m",
+                "must be a finite number".into(),
+            );
+        }
+        if t.fixed_mount_pitch_deg
+            .is_some_and(|v| !(v.is_finite() && (-90.0..=90.0).contains(&v)))
+        {
+            bad(
+                "telemetry.fixed_mount_pitch_deg",
+                "must be in -90..=90".into(),
+            );
+        }
+        match &self.frames {
+            FramesConfig::V4l2 {
+                pixel_format,
+                width_px,
+                height_px,
+                fps,
+                ..
+            } => {
+                if !["MJPG", "YUYV", "NV12"].contains(&pixel_format.as_str()) {
+                    bad(
+                        "frames.pixel_format",
+                        format!("`{pixel_format}` is not one of MJPG, YUYV, NV12"),
+                    );
+                }
+                if *width_px == 0 || *height_px == 0 {
+                    bad("frames.width_px", "width and height must be > 0".into());
+                }
+                if *fps == 0 {
+                    bad("frames.fps", "must be > 0".into());
+                }
+            }
+            FramesConfig::Sim { .. } => {}
+            FramesConfig::Images { fps, .. } => {
+                if !positive(*fps) {
+                    bad("frames.fps", "must be > 0".into());
+                }
+            }
+        }
+        if !(self.camera.hfov_deg.is_finite()
+            && self.camera.hfov_deg > 0.0
+            && self.camera.hfov_deg < 180.0)
+        {
+            bad("camera.hfov_deg", "must be in (0, 180)".into());
+        }
+        if !positive(self.geolocation.max_range_m) {
+            bad("geolocation.max_range_m", "must be > 0".into());
+        }
+        let n = &self.geolocation.noise;
+        for (key, v) in [
+            ("geolocation.noise.attitude_std_deg", n.attitude_std_deg),
+            ("geolocation.noise.altitude_std_m", n.altitude_std_m),
+            ("geolocation.noise.pixel_std_px", n.pixel_std_px),
+            (
+                "geolocation.noise.horizontal_position_std_m",
+                n.horizontal_position_std_m,
+            ),
+        ] {
+            if !non_negative(v) {
+                bad(key, "must be >= 0".into());
+            }
+        }
+        if !positive(self.outputs.track_rate_hz) {
+            bad("outputs.track_rate_hz", "must be > 0".into());
+        }
+        if !positive(self.outputs.heartbeat_hz) {
+            bad("outputs.heartbeat_hz", "must be > 0".into());
+        }
+        if let Err(e) = self.tracker.validate() {
+            bad("tracker", e.to_string());
+        }
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(problems)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = include_str!("../../systemd/mgmot.example.toml");
+
+    const MINIMAL: &str = r#"
+[mavlink]
+connection = "udpin:0.0.0.0:14550"
+[frames]
+source = "sim"
+socket = "/tmp/mgmot-sim.sock"
+[detector]
+kind = "replay"
+detections = "dets.json"
+"#;
+
+    #[test]
+    fn example_is_valid() {
+        let c = Config::parse(EXAMPLE).unwrap();
+        c.validate().unwrap();
+    }
+
+    /// Every key the configuration has (defaults included) is written in the example, so the
+    /// example documents all of them.
+    #[test]
+    fn example_documents_every_key() {
+        let mut c = Config::parse(MINIMAL).unwrap();
+        c.mavlink.signing = Some(SigningConfig {
+            key_hex: "00".repeat(32),
+            link_id: 0,
+        });
+        c.telemetry.water_level_amsl_m = Some(0.0);
+        c.telemetry.fixed_mount_pitch_deg = Some(0.0);
+        // Through text: the tracker's per-class table has integer keys, which toml::Value lacks.
+        let value: toml::Value = toml::from_str(&toml::to_string(&c).unwrap()).unwrap();
+        let mut missing = Vec::new();
+        fn walk(v: &toml::Value, prefix: &str, example: &str, missing: &mut Vec<String>) {
+            if let toml::Value::Table(t) = v {
+                for (k, v) in t {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    let as_key = format!("{k} =");
+                    let as_table = format!("[{key}]");
+                    let as_parent = format!("[{key}.");
+                    if !example.contains(&as_key)
+                        && !example.contains(&as_table)
+                        && !example.contains(&as_parent)
+                    {
+                        missing.push(key.clone());
+                    }
+                    walk(v, &key, example, missing);
+                }
+            }
+        }
+        walk(&value, "", EXAMPLE, &mut missing);
+        assert!(
+            missing.is_empty(),
+            "keys not in the example config: {missing:?}"
+        );
+    }
+
+    #[test]
+    fn minimal_takes_defaults() {
+        let c = Config::parse(MINIMAL).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.mavlink.component_id, 191);
+        assert_eq!(c.telemetry.max_pose_age_ms, 200.0);
+    }
+
+    #[test]
+    fn unknown_key_is_named_with_its_line() {
+        let text = MINIMAL.replace("[mavlink]", "[mavlink]\nconection = \"x\"");
+        let e = Config::parse(&text).unwrap_err();
+        assert!(e.contains("conection"), "{e}");
+        assert!(e.contains("line 3") || e.contains("3 |"), "{e}");
+    }
+
+    #[test]
+    fn invalid_values_name_their_keys() {
+        let text = MINIMAL
+            .replace("udpin:0.0.0.0:14550", "udp:nowhere")
+            .replace(
+                "[frames]",
+                "[outputs]\ntrack_rate_hz = 0\n[mavlink.signing]\nkey_hex = \"abc\"\n[frames]",
+            );
+        let c = Config::parse(&text).unwrap();
+        let keys: Vec<String> = c
+            .validate()
+            .unwrap_err()
+            .into_iter()
+            .map(|p| p.key)
+            .collect();
+        assert_eq!(
+            keys,
+            [
+                "mavlink.connection",
+                "mavlink.signing.key_hex",
+                "outputs.track_rate_hz"
+            ]
+        );
+    }
+
+    #[test]
+    fn signing_key_hex() {
+        let s = SigningConfig {
+            key_hex: "0f".repeat(32),
+            link_id: 1,
+        };
+        assert_eq!(s.key(), Some([0x0f; 32]));
+        let bad = SigningConfig {
+            key_hex: "zz".repeat(32),
+            link_id: 1,
+        };
+        assert_eq!(bad.key(), None);
+    }
+}

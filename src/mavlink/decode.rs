@@ -1,0 +1,348 @@
+//! Incoming messages -> typed domain samples.
+
+use super::dialect::{self, GimbalDeviceFlags, MavCmd, MavMessage};
+use crate::geo::attitude::GimbalYawFrame;
+use crate::geo::Geodetic;
+use crate::telemetry::{AttitudeSample, AutopilotTimeUs, GimbalSample, PositionSample};
+use nalgebra::{Quaternion, UnitQuaternion};
+
+/// An operator's camera-tracking command (MAV_CMD_CAMERA_TRACK_*), in normalised image
+/// coordinates (0..1, top-left origin) as the commands define them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraCommand {
+    /// MAV_CMD_CAMERA_TRACK_POINT: track what is at (x, y).
+    TrackPoint {
+        /// Horizontal position (0 = left).
+        x: f32,
+        /// Vertical position (0 = top).
+        y: f32,
+    },
+    /// MAV_CMD_CAMERA_TRACK_RECTANGLE: track what is inside the rectangle.
+    TrackRectangle {
+        /// Top-left x.
+        x0: f32,
+        /// Top-left y.
+        y0: f32,
+        /// Bottom-right x.
+        x1: f32,
+        /// Bottom-right y.
+        y1: f32,
+    },
+    /// MAV_CMD_CAMERA_STOP_TRACKING.
+    Stop,
+}
+
+/// What an incoming message means to mgmot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Incoming {
+    /// The autopilot is alive (HEARTBEAT from an autopilot component).
+    AutopilotHeartbeat,
+    /// GLOBAL_POSITION_INT.
+    Position(PositionSample),
+    /// ATTITUDE.
+    Attitude(AttitudeSample),
+    /// GIMBAL_DEVICE_ATTITUDE_STATUS, MOUNT_ORIENTATION or MOUNT_STATUS.
+    Gimbal(GimbalSample),
+    /// HOME_POSITION (altitude AMSL).
+    Home(Geodetic),
+    /// A TIMESYNC answer to our request: `ts1_ns` is the companion time we sent, `tc1_ns`
+    /// the autopilot's.
+    TimeSyncAnswer {
+        /// Autopilot time (ns).
+        tc1_ns: i64,
+        /// Our request's time (ns).
+        ts1_ns: i64,
+    },
+    /// A camera tracking command addressed to us.
+    Command {
+        /// The command.
+        command: CameraCommand,
+        /// Its MAV_CMD number (for the COMMAND_ACK).
+        mav_cmd: MavCmd,
+    },
+}
+
+/// MAVLink's "no data" marker in the gimbal quaternion.
+fn quaternion(q: [f32; 4]) -> Option<UnitQuaternion<f64>> {
+    let [w, x, y, z] = q.map(f64::from);
+    if ![w, x, y, z].iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let q = Quaternion::new(w, x, y, z);
+    (q.norm() > 0.5).then(|| UnitQuaternion::from_quaternion(q))
+}
+
+fn euler_rad(roll: f64, pitch: f64, yaw: f64) -> Option<UnitQuaternion<f64>> {
+    [roll, pitch, yaw]
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| UnitQuaternion::from_euler_angles(roll, pitch, yaw))
+}
+
+/// The yaw frame of a GIMBAL_DEVICE_ATTITUDE_STATUS (gimbal protocol v2): the explicit
+/// YAW_IN_* flags when present, else YAW_LOCK means earth frame and follow mode vehicle frame.
+fn gimbal_yaw_frame(flags: GimbalDeviceFlags) -> GimbalYawFrame {
+    if flags.contains(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME) {
+        GimbalYawFrame::Earth
+    } else if flags.contains(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME) {
+        GimbalYawFrame::Vehicle
+    } else if flags.contains(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_LOCK) {
+        GimbalYawFrame::Earth
+    } else {
+        GimbalYawFrame::Vehicle
+    }
+}
+
+fn geodetic(lat_e7: i32, lon_e7: i32, alt_mm: i32) -> Option<Geodetic> {
+    Geodetic::new(
+        f64::from(lat_e7) * 1e-7,
+        f64::from(lon_e7) * 1e-7,
+        f64::from(alt_mm) * 1e-3,
+    )
+    .ok()
+}
+
+/// Decodes one message from system `from_system`, component `from_component`. `our_system`
+/// is the system id mgmot uses (commands must target it and our component, or broadcast).
+/// Messages mgmot has no use for, and samples with invalid values (NaN attitude, no fix), give
+/// `None`.
+// MOUNT_ORIENTATION is deprecated in common.xml but ArduPilot still sends it for legacy gimbals.
+#[allow(deprecated)]
+pub fn decode(
+    msg: &MavMessage,
+    from_component: u8,
+    our_system: u8,
+    our_component: u8,
+) -> Option<Incoming> {
+    match msg {
+        MavMessage::HEARTBEAT(h) => (from_component == 1
+            || h.autopilot != dialect::MavAutopilot::MAV_AUTOPILOT_INVALID)
+            .then_some(Incoming::AutopilotHeartbeat),
+        MavMessage::GLOBAL_POSITION_INT(p) => {
+            if p.lat == 0 && p.lon == 0 {
+                return None; // no fix
+            }
+            Some(Incoming::Position(PositionSample {
+                time: AutopilotTimeUs::from_boot_ms(p.time_boot_ms),
+                position: geodetic(p.lat, p.lon, p.alt)?,
+            }))
+        }
+        MavMessage::ATTITUDE(a) => Some(Incoming::Attitude(AttitudeSample {
+            time: AutopilotTimeUs::from_boot_ms(a.time_boot_ms),
+            attitude: euler_rad(a.roll.into(), a.pitch.into(), a.yaw.into())?,
+        })),
+        MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) => Some(Incoming::Gimbal(GimbalSample {
+            time: AutopilotTimeUs::from_boot_ms(g.time_boot_ms),
+            attitude: quaternion(g.q)?,
+            frame: gimbal_yaw_frame(g.flags),
+        })),
+        MavMessage::MOUNT_ORIENTATION(m) => Some(Incoming::Gimbal(GimbalSample {
+            time: AutopilotTimeUs::from_boot_ms(m.time_boot_ms),
+            // Roll and pitch relative to the horizon, yaw relative to the vehicle (deg).
+            attitude: euler_rad(
+                f64::from(m.roll).to_radians(),
+                f64::from(m.pitch).to_radians(),
+                f64::from(m.yaw).to_radians(),
+            )?,
+            frame: GimbalYawFrame::Vehicle,
+        })),
+        // ArduPilot's MOUNT_STATUS carries no timestamp; the link stamps it on arrival, so
+        // it is decoded by `decode_mount_status`.
+        MavMessage::HOME_POSITION(h) => {
+            geodetic(h.latitude, h.longitude, h.altitude).map(Incoming::Home)
+        }
+        MavMessage::TIMESYNC(t) if t.tc1 != 0 => Some(Incoming::TimeSyncAnswer {
+            tc1_ns: t.tc1,
+            ts1_ns: t.ts1,
+        }),
+        MavMessage::COMMAND_LONG(c) => {
+            let for_us = (c.target_system == 0 || c.target_system == our_system)
+                && (c.target_component == 0 || c.target_component == our_component);
+            if !for_us {
+                return None;
+            }
+            let command = match c.command {
+                MavCmd::MAV_CMD_CAMERA_TRACK_POINT => CameraCommand::TrackPoint {
+                    x: c.param1,
+                    y: c.param2,
+                },
+                MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE => CameraCommand::TrackRectangle {
+                    x0: c.param1,
+                    y0: c.param2,
+                    x1: c.param3,
+                    y1: c.param4,
+                },
+                MavCmd::MAV_CMD_CAMERA_STOP_TRACKING => CameraCommand::Stop,
+                _ => return None,
+            };
+            Some(Incoming::Command {
+                command,
+                mav_cmd: c.command,
+            })
+        }
+        _ => None,
+    }
+}
+
+/// ArduPilot's MOUNT_STATUS (centidegrees: a = pitch, b = roll, c = yaw relative to the
+/// vehicle), stamped with `time` (the arrival time mapped onto the autopilot clock, as the
+/// message has no stamp of its own).
+pub fn decode_mount_status(msg: &MavMessage, time: AutopilotTimeUs) -> Option<GimbalSample> {
+    let MavMessage::MOUNT_STATUS(m) = msg else {
+        return None;
+    };
+    let cdeg = |v: i32| (f64::from(v) / 100.0).to_radians();
+    Some(GimbalSample {
+        time,
+        attitude: euler_rad(cdeg(m.pointing_b), cdeg(m.pointing_a), cdeg(m.pointing_c))?,
+        frame: GimbalYawFrame::Vehicle,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::attitude::camera_from_gimbal_quaternion;
+    use dialect::*;
+
+    #[test]
+    fn global_position_int() {
+        let m = MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            time_boot_ms: 1500,
+            lat: 476_721_000,
+            lon: 92_679_000,
+            alt: 425_000,
+            ..Default::default()
+        });
+        let Some(Incoming::Position(p)) = decode(&m, 1, 1, 191) else {
+            panic!("not a position");
+        };
+        assert_eq!(p.time, AutopilotTimeUs(1_500_000));
+        assert!((p.position.lat_deg - 47.6721).abs() < 1e-9);
+        assert!((p.position.alt_m - 425.0).abs() < 1e-9);
+        let no_fix = MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA::default());
+        assert_eq!(decode(&no_fix, 1, 1, 191), None);
+    }
+
+    #[test]
+    fn gimbal_flags_pick_the_yaw_frame() {
+        let q = UnitQuaternion::from_euler_angles(0.0, -0.8, 0.3);
+        let mk = |flags| {
+            MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+                time_boot_ms: 10,
+                q: [q.w as f32, q.i as f32, q.j as f32, q.k as f32],
+                flags,
+                ..Default::default()
+            })
+        };
+        let frame = |flags| match decode(&mk(flags), 154, 1, 191) {
+            Some(Incoming::Gimbal(g)) => g.frame,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            frame(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME),
+            GimbalYawFrame::Earth
+        );
+        assert_eq!(
+            frame(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME),
+            GimbalYawFrame::Vehicle
+        );
+        assert_eq!(
+            frame(GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_LOCK),
+            GimbalYawFrame::Earth
+        );
+        assert_eq!(frame(GimbalDeviceFlags::empty()), GimbalYawFrame::Vehicle);
+        // NaN quaternion = no data.
+        let nan = MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+            q: [f32::NAN; 4],
+            ..Default::default()
+        });
+        assert_eq!(decode(&nan, 154, 1, 191), None);
+    }
+
+    #[test]
+    #[allow(deprecated)]
+    fn mount_status_and_orientation_agree() {
+        let status = MavMessage::MOUNT_STATUS(MOUNT_STATUS_DATA {
+            pointing_a: -4500,
+            pointing_b: 0,
+            pointing_c: 1000,
+            ..Default::default()
+        });
+        let a = decode_mount_status(&status, AutopilotTimeUs(5)).unwrap();
+        let orient = MavMessage::MOUNT_ORIENTATION(MOUNT_ORIENTATION_DATA {
+            time_boot_ms: 0,
+            roll: 0.0,
+            pitch: -45.0,
+            yaw: 10.0,
+            ..Default::default()
+        });
+        let Some(Incoming::Gimbal(b)) = decode(&orient, 1, 1, 191) else {
+            panic!()
+        };
+        assert!(a.attitude.angle_to(&b.attitude) < 1e-6);
+        assert_eq!(a.frame, GimbalYawFrame::Vehicle);
+        // Vehicle heading east, gimbal 10 deg right of it, 45 deg down.
+        let vehicle = UnitQuaternion::from_euler_angles(0.0, 0.0, 90f64.to_radians());
+        let cam = camera_from_gimbal_quaternion(&a.attitude, a.frame, &vehicle);
+        let expected = crate::geo::attitude::camera_from_heading_pitch_deg(100.0, 45.0, 0.0);
+        assert!(cam.angle_to(&expected) < 1e-6);
+    }
+
+    #[test]
+    fn commands_only_when_addressed_to_us() {
+        let cmd = |target_system, target_component, command| {
+            MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                target_system,
+                target_component,
+                command,
+                param1: 0.25,
+                param2: 0.5,
+                ..Default::default()
+            })
+        };
+        assert_eq!(
+            decode(
+                &cmd(1, 191, MavCmd::MAV_CMD_CAMERA_TRACK_POINT),
+                190,
+                1,
+                191
+            ),
+            Some(Incoming::Command {
+                command: CameraCommand::TrackPoint { x: 0.25, y: 0.5 },
+                mav_cmd: MavCmd::MAV_CMD_CAMERA_TRACK_POINT
+            })
+        );
+        assert_eq!(
+            decode(
+                &cmd(1, 100, MavCmd::MAV_CMD_CAMERA_TRACK_POINT),
+                190,
+                1,
+                191
+            ),
+            None
+        );
+        assert!(matches!(
+            decode(
+                &cmd(0, 0, MavCmd::MAV_CMD_CAMERA_STOP_TRACKING),
+                190,
+                1,
+                191
+            ),
+            Some(Incoming::Command {
+                command: CameraCommand::Stop,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn timesync_requests_are_not_answers() {
+        let req = MavMessage::TIMESYNC(TIMESYNC_DATA {
+            tc1: 0,
+            ts1: 5,
+            ..Default::default()
+        });
+        assert_eq!(decode(&req, 1, 1, 191), None);
+    }
+}

@@ -1,0 +1,324 @@
+//! The messages mgmot sends, built from domain values.
+
+use super::dialect::*;
+use crate::geo::Geodetic;
+use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
+use mavlink_core::MessageData;
+
+// MOUNT_ORIENTATION is deprecated in common.xml but still what ArduPilot sends for legacy
+// gimbals.
+#[allow(deprecated)]
+/// Telemetry streams requested from the autopilot with MAV_CMD_SET_MESSAGE_INTERVAL, and their
+/// rates (Hz). Position and attitude fast enough that interpolating between samples at a
+/// frame's time is accurate (a drone at 15 m/s moves 30 cm in 20 ms); home rarely changes.
+pub const STREAMS: [(u32, f32); 6] = [
+    (GLOBAL_POSITION_INT_DATA::ID, 50.0),
+    (ATTITUDE_DATA::ID, 50.0),
+    (GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID, 50.0),
+    (MOUNT_ORIENTATION_DATA::ID, 50.0),
+    (HOME_POSITION_DATA::ID, 0.2),
+    (SYSTEM_TIME_DATA::ID, 1.0),
+];
+
+/// STATUSTEXT severities mgmot uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// Something stopped working (telemetry lost, camera gone, detector failing).
+    Warning,
+    /// Something came back or changed state normally.
+    Info,
+}
+
+/// HEARTBEAT of mgmot as an onboard computer component.
+pub fn heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+/// STATUSTEXT (text longer than the message's 50 characters is cut at a char boundary).
+pub fn statustext(severity: Severity, text: &str) -> MavMessage {
+    let mut end = text.len().min(50);
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+        severity: match severity {
+            Severity::Warning => MavSeverity::MAV_SEVERITY_WARNING,
+            Severity::Info => MavSeverity::MAV_SEVERITY_INFO,
+        },
+        text: text[..end].into(),
+        ..Default::default()
+    })
+}
+
+/// MAV_CMD_SET_MESSAGE_INTERVAL for message `message_id` at `rate_hz` to the autopilot.
+pub fn message_interval_request(
+    target_system: u8,
+    target_component: u8,
+    message_id: u32,
+    rate_hz: f32,
+) -> MavMessage {
+    let interval_us = if rate_hz > 0.0 { 1e6 / rate_hz } else { -1.0 };
+    MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        target_system,
+        target_component,
+        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        confirmation: 0,
+        param1: message_id as f32,
+        param2: interval_us,
+        ..Default::default()
+    })
+}
+
+/// A TIMESYNC request carrying our time `now` (ns on the wire).
+pub fn timesync_request(now: CompanionTimeUs) -> MavMessage {
+    MavMessage::TIMESYNC(TIMESYNC_DATA {
+        tc1: 0,
+        ts1: i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX),
+        ..Default::default()
+    })
+}
+
+/// COMMAND_ACK for a command from `target_system` / `target_component`.
+pub fn command_ack(
+    command: MavCmd,
+    accepted: bool,
+    target_system: u8,
+    target_component: u8,
+) -> MavMessage {
+    MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+        command,
+        result: if accepted {
+            MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            MavResult::MAV_RESULT_DENIED
+        },
+        progress: 0,
+        result_param2: 0,
+        target_system,
+        target_component,
+    })
+}
+
+/// The geographic part of a track report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackGeo {
+    /// Position on the sea surface; `alt_m` AMSL.
+    pub position: Geodetic,
+    /// Velocity north (m/s).
+    pub vel_n_mps: f64,
+    /// Velocity east (m/s).
+    pub vel_e_mps: f64,
+    /// Horizontal position standard deviation (m).
+    pub h_std_m: f64,
+}
+
+/// One confirmed track as reported over MAVLink.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackReport {
+    /// Capture time of the frame the state belongs to.
+    pub time: AutopilotTimeUs,
+    /// Track id.
+    pub track_id: u64,
+    /// The id a re-identified track had before it was merged into this one, in this frame.
+    pub merged_from_id: Option<u64>,
+    /// Class id (SeaDronesSee numbering).
+    pub class_id: u32,
+    /// Detector confidence (0..1).
+    pub confidence: f32,
+    /// Box (x, y, w, h) as fractions of the image size.
+    pub bbox_norm: [f32; 4],
+    /// Matched in this frame (`false`: predicted, the track is lost for now).
+    pub tracked: bool,
+    /// Geolocation, when the frame had a usable pose.
+    pub geo: Option<TrackGeo>,
+}
+
+fn deg_e7(deg: f64) -> i32 {
+    (deg * 1e7).round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
+}
+
+fn id32(id: u64) -> u32 {
+    // Ids beyond u32 would need 136 years of one new track per second.
+    u32::try_from(id).unwrap_or(u32::MAX)
+}
+
+/// MGMOT_TRACK for a report.
+pub fn mgmot_track(r: &TrackReport) -> MavMessage {
+    let mut flags = MgmotTrackFlags::empty();
+    if r.geo.is_some() {
+        flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID;
+    }
+    if r.merged_from_id.is_some() {
+        flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED;
+    }
+    let object_class = match r.class_id {
+        1 => MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER,
+        2 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BOAT,
+        3 => MgmotObjectClass::MGMOT_OBJECT_CLASS_JETSKI,
+        4 => MgmotObjectClass::MGMOT_OBJECT_CLASS_LIFE_SAVING_APPLIANCE,
+        5 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BUOY,
+        _ => MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN,
+    };
+    let (lat, lon, alt, vel_n, vel_e, h_std) = match &r.geo {
+        Some(g) => (
+            deg_e7(g.position.lat_deg),
+            deg_e7(g.position.lon_deg),
+            (g.position.alt_m * 1000.0).round() as i32,
+            g.vel_n_mps as f32,
+            g.vel_e_mps as f32,
+            g.h_std_m as f32,
+        ),
+        None => (0, 0, 0, f32::NAN, f32::NAN, f32::NAN),
+    };
+    MavMessage::MGMOT_TRACK(MGMOT_TRACK_DATA {
+        time_usec: r.time.0,
+        track_id: id32(r.track_id),
+        merged_from_id: r.merged_from_id.map_or(0, id32),
+        lat,
+        lon,
+        alt,
+        vel_n,
+        vel_e,
+        h_std,
+        confidence: r.confidence,
+        bbox_x: r.bbox_norm[0],
+        bbox_y: r.bbox_norm[1],
+        bbox_w: r.bbox_norm[2],
+        bbox_h: r.bbox_norm[3],
+        object_class,
+        state: if r.tracked {
+            MgmotTrackState::MGMOT_TRACK_STATE_TRACKED
+        } else {
+            MgmotTrackState::MGMOT_TRACK_STATE_LOST
+        },
+        flags,
+    })
+}
+
+/// TARGET_ABSOLUTE (development.xml) for a geolocated report; `None` without geolocation
+/// (the message has no way to say "position unknown"). Its `id` is 8 bits: the low byte of the
+/// track id, so generic consumers see ids wrap after 256 tracks; MGMOT_TRACK has the full id.
+pub fn target_absolute(r: &TrackReport) -> Option<MavMessage> {
+    let g = r.geo?;
+    let nan3 = [f32::NAN; 3];
+    Some(MavMessage::TARGET_ABSOLUTE(TARGET_ABSOLUTE_DATA {
+        timestamp: r.time.0,
+        id: (r.track_id & 0xff) as u8,
+        sensor_capabilities:
+            TargetAbsoluteSensorCapabilityFlags::TARGET_ABSOLUTE_SENSOR_CAPABILITY_POSITION
+                | TargetAbsoluteSensorCapabilityFlags::TARGET_ABSOLUTE_SENSOR_CAPABILITY_VELOCITY,
+        lat: deg_e7(g.position.lat_deg),
+        lon: deg_e7(g.position.lon_deg),
+        alt: g.position.alt_m as f32,
+        vel: [g.vel_n_mps as f32, g.vel_e_mps as f32, 0.0],
+        acc: nan3,
+        q_target: [f32::NAN; 4],
+        rates: nan3,
+        position_std: [g.h_std_m as f32, f32::NAN],
+        vel_std: nan3,
+        acc_std: nan3,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mavlink_core::{MavHeader, MavlinkVersion, Message as _};
+
+    fn report(geo: bool) -> TrackReport {
+        TrackReport {
+            time: AutopilotTimeUs(12_345_000),
+            track_id: 7,
+            merged_from_id: Some(12),
+            class_id: 1,
+            confidence: 0.8,
+            bbox_norm: [0.1, 0.2, 0.05, 0.04],
+            tracked: true,
+            geo: geo.then_some(TrackGeo {
+                position: Geodetic {
+                    lat_deg: 47.6721234,
+                    lon_deg: 9.2679876,
+                    alt_m: 395.0,
+                },
+                vel_n_mps: 0.3,
+                vel_e_mps: -0.1,
+                h_std_m: 1.5,
+            }),
+        }
+    }
+
+    /// Serialises and parses a message back through the wire format.
+    fn round_trip(m: &MavMessage) -> MavMessage {
+        let mut buf = Vec::new();
+        mavlink_core::write_versioned_msg(&mut buf, MavlinkVersion::V2, MavHeader::default(), m)
+            .unwrap();
+        let mut reader = mavlink_core::MavlinkReader::new(&buf[..]);
+        let (_, back) = reader
+            .read_message::<MavMessage>(MavlinkVersion::V2)
+            .unwrap();
+        back
+    }
+
+    #[test]
+    fn mgmot_track_fields_and_wire_round_trip() {
+        let m = mgmot_track(&report(true));
+        assert_eq!(m.message_id(), 43000);
+        let MavMessage::MGMOT_TRACK(t) = round_trip(&m) else {
+            panic!("wrong message back")
+        };
+        assert_eq!(t.track_id, 7);
+        assert_eq!(t.merged_from_id, 12);
+        assert_eq!(t.lat, 476_721_234);
+        assert_eq!(t.lon, 92_679_876);
+        assert_eq!(t.alt, 395_000);
+        assert_eq!(t.object_class, MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER);
+        assert!(t
+            .flags
+            .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID));
+        assert!(t.flags.contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED));
+        assert_eq!(t.time_usec, 12_345_000);
+    }
+
+    #[test]
+    fn no_geolocation_is_flagged_and_has_no_target_absolute() {
+        let r = report(false);
+        let MavMessage::MGMOT_TRACK(t) = mgmot_track(&r) else {
+            panic!()
+        };
+        assert!(!t
+            .flags
+            .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID));
+        assert!(t.h_std.is_nan());
+        assert!(target_absolute(&r).is_none());
+        let Some(MavMessage::TARGET_ABSOLUTE(a)) = target_absolute(&report(true)) else {
+            panic!()
+        };
+        assert_eq!(a.id, 7);
+        assert_eq!(a.position_std[0], 1.5);
+    }
+
+    #[test]
+    fn statustext_is_cut_on_a_char_boundary() {
+        let long = "é".repeat(40);
+        let MavMessage::STATUSTEXT(s) = statustext(Severity::Warning, &long) else {
+            panic!()
+        };
+        assert_eq!(s.text.to_str().unwrap().chars().count(), 25);
+    }
+
+    #[test]
+    fn message_interval_is_in_microseconds() {
+        let MavMessage::COMMAND_LONG(c) = message_interval_request(1, 1, 33, 50.0) else {
+            panic!()
+        };
+        assert_eq!(c.command, MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL);
+        assert_eq!((c.param1, c.param2), (33.0, 20_000.0));
+    }
+}

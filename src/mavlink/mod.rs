@@ -1,0 +1,22 @@
+//! The MAVLink edge: the project's dialect, connection strings, typed telemetry samples decoded
+//! from incoming messages, and the messages mgmot sends.
+//!
+//! Everything past this module sees domain types ([`crate::telemetry`] samples,
+//! [`TrackReport`]), never a MAVLink message.
+
+mod address;
+mod decode;
+mod encode;
+
+include!(concat!(env!("OUT_DIR"), "/mavlink-bindings/declare.rs"));
+pub use self::mgmot as dialect;
+
+pub use address::{parse_connection, AddressError};
+pub use decode::{decode, decode_mount_status, CameraCommand, Incoming};
+pub use encode::{
+    command_ack, heartbeat, message_interval_request, mgmot_track, statustext, target_absolute,
+    timesync_request, Severity, TrackGeo, TrackReport, STREAMS,
+};
+
+/// Our component id: MAV_COMP_ID_ONBOARD_COMPUTER.
+pub const COMPONENT_ID: u8 = 191;

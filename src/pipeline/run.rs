@@ -1,0 +1,612 @@
+//! `pipeline::run`: the MAVLink link (tokio tasks), the capture thread, the inference thread
+//! (detector -> pose -> geolocation -> tracker) and the track outputs, stopped by one
+//! [`Shutdown`].
+
+use super::{newest_slot, Detector, ReplayDetector, Shutdown, SlotReader, SlotWriter, Taken};
+use crate::camera::{CaptureTime, Frame, SimSocketSource};
+use crate::config::{Config, DetectorConfig, FramesConfig};
+use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator, Pixel};
+use crate::mavlink::{
+    self as link, dialect::MavMessage, Incoming, Severity, TrackGeo, TrackReport,
+};
+use crate::telemetry::{AutopilotTimeUs, ClockSync, CompanionTimeUs, PoseBuffer};
+use crate::track::{Detection, FrameInput, Tracker, WorldObservation};
+use mavlink_core::{AsyncMavConnection, MavHeader, MavlinkVersion};
+use nalgebra::{UnitQuaternion, Vector3};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+
+/// Outgoing messages queued for the link: enough for every track of a busy frame; when the
+/// link cannot keep up, messages are dropped and counted rather than stalling inference.
+const OUT_QUEUE: usize = 1024;
+
+/// How long the capture thread waits before reconnecting to a frame source, at most.
+const MAX_RECONNECT_BACKOFF: Duration = Duration::from_secs(5);
+
+/// Why the runtime stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// The MAVLink connection could not be opened.
+    #[error("MAVLink connection `{address}`: {source}")]
+    Link {
+        /// The connection string.
+        address: String,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The detector could not be set up.
+    #[error(transparent)]
+    Detector(#[from] super::DetectorError),
+    /// The tracker parameters are invalid.
+    #[error("tracker: {0}")]
+    Tracker(String),
+    /// A configuration this version cannot run yet.
+    #[error("{0} is not implemented in this version")]
+    Unsupported(&'static str),
+    /// A thread of the pipeline panicked.
+    #[error("the {0} thread panicked")]
+    Panicked(&'static str),
+}
+
+/// Counters of one run, logged and returned at the end.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct RunStats {
+    /// Frames the source delivered.
+    pub frames_captured: u64,
+    /// Frames overwritten in the newest-frame slot before inference took them.
+    pub frames_dropped: u64,
+    /// Frames through detector and tracker.
+    pub frames_processed: u64,
+    /// Frames processed without a usable pose (tracked in the image only).
+    pub frames_without_pose: u64,
+    /// MGMOT_TRACK messages queued.
+    pub track_messages: u64,
+    /// Outgoing messages dropped because the link queue was full.
+    pub messages_dropped: u64,
+}
+
+/// Telemetry shared between the link's receive task and the inference thread.
+#[derive(Debug)]
+struct Telemetry {
+    poses: PoseBuffer,
+    clock: ClockSync,
+    home: Option<Geodetic>,
+    /// Companion time of the latest position fix (for "telemetry lost").
+    last_position_at: Option<CompanionTimeUs>,
+}
+
+/// The companion's monotonic clock, µs since the runtime started.
+#[derive(Debug, Clone, Copy)]
+struct Monotonic(Instant);
+
+impl Monotonic {
+    fn now(&self) -> CompanionTimeUs {
+        CompanionTimeUs(self.0.elapsed().as_micros() as u64)
+    }
+}
+
+/// Queues a message for the link, counting it when the queue is full.
+#[derive(Debug, Clone)]
+struct Outbox {
+    tx: mpsc::Sender<MavMessage>,
+    dropped: Arc<AtomicU64>,
+}
+
+impl Outbox {
+    fn send(&self, m: MavMessage) {
+        if self.tx.try_send(m).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Runs until `shutdown` fires or the frame source ends; returns the counters.
+pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
+    let clock = Monotonic(Instant::now());
+    let address = config.mavlink.connection.clone();
+    let mut conn = mavlink_core::connect_async::<MavMessage>(&address)
+        .await
+        .map_err(|source| PipelineError::Link {
+            address: address.clone(),
+            source,
+        })?;
+    conn.set_protocol_version(MavlinkVersion::V2);
+    if let Some(key) = config.mavlink.signing.as_ref().and_then(|s| s.key()) {
+        let link_id = config.mavlink.signing.as_ref().map_or(0, |s| s.link_id);
+        // Sign everything we send; accept nothing unsigned (stricter than "reject unsigned
+        // commands": with signing on, the autopilot signs its telemetry too).
+        conn.setup_signing(Some(mavlink_core::SigningConfig::new(
+            key, link_id, true, false,
+        )));
+    }
+    let conn = Arc::new(conn);
+    let header = MavHeader {
+        system_id: u32::from(config.mavlink.system_id),
+        component_id: config.mavlink.component_id,
+        sequence: 0,
+    };
+
+    let max_age_us = (config.telemetry.max_pose_age_ms * 1000.0) as u64;
+    let mut poses = PoseBuffer::new(max_age_us);
+    if let Some(pitch) = config.telemetry.fixed_mount_pitch_deg {
+        poses = poses.with_fixed_mount(UnitQuaternion::from_euler_angles(
+            0.0,
+            pitch.to_radians(),
+            0.0,
+        ));
+    }
+    let telemetry = Arc::new(Mutex::new(Telemetry {
+        poses,
+        clock: ClockSync::new(),
+        home: None,
+        last_position_at: None,
+    }));
+    let (out_tx, mut out_rx) = mpsc::channel::<MavMessage>(OUT_QUEUE);
+    let outbox = Outbox {
+        tx: out_tx,
+        dropped: Arc::new(AtomicU64::new(0)),
+    };
+
+    // Sender task: the only writer of the connection.
+    let sender = {
+        let conn = conn.clone();
+        tokio::spawn(async move {
+            while let Some(m) = out_rx.recv().await {
+                if let Err(e) = conn.send(&header, &m).await {
+                    tracing::debug!(error = %e, "MAVLink send failed");
+                }
+            }
+        })
+    };
+
+    // Stream requests, then the receive task.
+    if config.mavlink.stream_rate_hz > 0.0 {
+        for (id, rate) in link::STREAMS {
+            let rate = if rate >= 1.0 {
+                config.mavlink.stream_rate_hz
+            } else {
+                rate
+            };
+            outbox.send(link::message_interval_request(
+                config.mavlink.system_id,
+                config.mavlink.autopilot_component_id,
+                id,
+                rate,
+            ));
+        }
+    }
+    let receiver = {
+        let conn = conn.clone();
+        let telemetry = telemetry.clone();
+        let mut shutdown = shutdown.clone();
+        let (our_system, our_component) = (config.mavlink.system_id, config.mavlink.component_id);
+        tokio::spawn(async move {
+            loop {
+                let received = tokio::select! {
+                    _ = shutdown.recv() => break,
+                    r = conn.recv() => r,
+                };
+                let (hdr, msg) = match received {
+                    Ok(x) => x,
+                    Err(e) => {
+                        tracing::trace!(error = %e, "MAVLink receive");
+                        // UDP "no peer yet" and parse errors: keep listening, without spinning.
+                        tokio::time::sleep(Duration::from_millis(1)).await;
+                        continue;
+                    }
+                };
+                let now = clock.now();
+                let Ok(mut t) = telemetry.lock() else { break };
+                if let MavMessage::MOUNT_STATUS(_) = &msg {
+                    if let Some(ap) = t.clock.to_autopilot(now) {
+                        if let Some(g) = link::decode_mount_status(&msg, ap) {
+                            t.poses.push_gimbal(g);
+                        }
+                    }
+                    continue;
+                }
+                match link::decode(&msg, hdr.component_id, our_system, our_component) {
+                    Some(Incoming::Position(p)) => {
+                        t.clock.observe_arrival(p.time, now);
+                        t.poses.push_position(p);
+                        t.last_position_at = Some(now);
+                    }
+                    Some(Incoming::Attitude(a)) => {
+                        t.clock.observe_arrival(a.time, now);
+                        t.poses.push_attitude(a);
+                    }
+                    Some(Incoming::Gimbal(g)) => t.poses.push_gimbal(g),
+                    Some(Incoming::Home(h)) => t.home = Some(h),
+                    Some(Incoming::TimeSyncAnswer { tc1_ns, ts1_ns }) => {
+                        if let (Ok(ts1), Ok(tc1)) = (u64::try_from(ts1_ns), u64::try_from(tc1_ns)) {
+                            t.clock.observe_timesync(
+                                CompanionTimeUs(ts1 / 1000),
+                                AutopilotTimeUs(tc1 / 1000),
+                                now,
+                            );
+                        }
+                    }
+                    Some(Incoming::Command { .. }) | Some(Incoming::AutopilotHeartbeat) | None => {}
+                }
+            }
+        })
+    };
+
+    // Heartbeat, TIMESYNC and health task.
+    let health = {
+        let outbox = outbox.clone();
+        let telemetry = telemetry.clone();
+        let mut shutdown = shutdown.clone();
+        let heartbeat_every = Duration::from_secs_f64(1.0 / config.outputs.heartbeat_hz);
+        let timesync_hz = config.mavlink.timesync_hz;
+        let lost_after_us = (config.telemetry.lost_after_ms * 1000.0) as u64;
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(heartbeat_every.min(Duration::from_millis(500)));
+            let mut last_heartbeat: Option<Instant> = None;
+            let mut last_timesync: Option<Instant> = None;
+            let mut telemetry_ok: Option<bool> = None;
+            loop {
+                tokio::select! {
+                    _ = shutdown.recv() => break,
+                    _ = tick.tick() => {}
+                }
+                if last_heartbeat.is_none_or(|t| t.elapsed() >= heartbeat_every) {
+                    outbox.send(link::heartbeat());
+                    last_heartbeat = Some(Instant::now());
+                }
+                if timesync_hz > 0.0
+                    && last_timesync.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / timesync_hz)
+                {
+                    outbox.send(link::timesync_request(clock.now()));
+                    last_timesync = Some(Instant::now());
+                }
+                let now = clock.now();
+                let ok = telemetry
+                    .lock()
+                    .ok()
+                    .and_then(|t| t.last_position_at)
+                    .is_some_and(|at| now.0.saturating_sub(at.0) <= lost_after_us);
+                if telemetry_ok != Some(ok) {
+                    let (severity, text) = if ok {
+                        (Severity::Info, "mgmot: telemetry ok")
+                    } else {
+                        (
+                            Severity::Warning,
+                            "mgmot: no telemetry, geolocation invalid",
+                        )
+                    };
+                    // The first "ok" is not news; every change after it is.
+                    if telemetry_ok.is_some() || !ok {
+                        tracing::warn!(telemetry_ok = ok, "{text}");
+                        outbox.send(link::statustext(severity, text));
+                    }
+                    telemetry_ok = Some(ok);
+                }
+            }
+        })
+    };
+
+    // Capture and inference threads.
+    let detector: Box<dyn Detector> = match &config.detector {
+        DetectorConfig::Replay {
+            detections,
+            first_image_id,
+        } => Box::new(ReplayDetector::load(detections, *first_image_id)?),
+    };
+    let tracker =
+        Tracker::new(config.tracker.clone()).map_err(|e| PipelineError::Tracker(e.to_string()))?;
+    let (writer, reader) = newest_slot::<Frame>();
+    let captured = Arc::new(AtomicU64::new(0));
+    let capture = {
+        let shutdown = shutdown.clone();
+        let captured = captured.clone();
+        let frames = config.frames.clone();
+        let outbox = outbox.clone();
+        match frames {
+            FramesConfig::Sim { socket } => std::thread::Builder::new()
+                .name("capture".into())
+                .spawn(move || capture_sim(&socket, writer, &shutdown, &captured, &outbox))
+                .map_err(|_| PipelineError::Panicked("capture"))?,
+            FramesConfig::Images { .. } => {
+                return Err(PipelineError::Unsupported("frames.source = \"images\""))
+            }
+            FramesConfig::V4l2 { .. } => {
+                return Err(PipelineError::Unsupported("frames.source = \"v4l2\""))
+            }
+        }
+    };
+    let inference = {
+        let shutdown = shutdown.clone();
+        let telemetry = telemetry.clone();
+        let outbox = outbox.clone();
+        let cfg = config.clone();
+        std::thread::Builder::new()
+            .name("inference".into())
+            .spawn(move || {
+                infer(
+                    &cfg, reader, detector, tracker, &telemetry, &outbox, &shutdown,
+                )
+            })
+            .map_err(|_| PipelineError::Panicked("inference"))?
+    };
+
+    // Wait for the inference thread (it ends when shutdown fires or the source ends).
+    let mut stats = tokio::task::spawn_blocking(move || inference.join())
+        .await
+        .map_err(|_| PipelineError::Panicked("inference"))?
+        .map_err(|_| PipelineError::Panicked("inference"))?;
+    let _ = tokio::task::spawn_blocking(move || capture.join()).await;
+    stats.frames_captured = captured.load(Ordering::Relaxed);
+    // Stop the link tasks, then flush what is queued.
+    health.abort();
+    receiver.abort();
+    stats.messages_dropped = outbox.dropped.load(Ordering::Relaxed);
+    drop(outbox);
+    let _ = tokio::time::timeout(Duration::from_secs(2), sender).await;
+    tracing::info!(?stats, "pipeline stopped");
+    Ok(stats)
+}
+
+/// The capture loop for the simulator's socket: (re)connects with backoff until shutdown;
+/// ends when the simulator closes the stream after its last frame.
+fn capture_sim(
+    socket: &std::path::Path,
+    writer: SlotWriter<Frame>,
+    shutdown: &Shutdown,
+    captured: &AtomicU64,
+    outbox: &Outbox,
+) {
+    let mut backoff = Duration::from_millis(50);
+    let mut reported_lost = false;
+    while !shutdown.is_shutdown() {
+        let mut source = match SimSocketSource::connect(socket) {
+            Ok(s) => s,
+            Err(e) => {
+                if !reported_lost {
+                    tracing::warn!(error = %e, "camera not available; retrying");
+                    outbox.send(link::statustext(Severity::Warning, "mgmot: camera lost"));
+                    reported_lost = true;
+                }
+                std::thread::sleep(backoff);
+                backoff = (backoff * 2).min(MAX_RECONNECT_BACKOFF);
+                continue;
+            }
+        };
+        if reported_lost {
+            outbox.send(link::statustext(Severity::Info, "mgmot: camera back"));
+        }
+        backoff = Duration::from_millis(50);
+        loop {
+            if shutdown.is_shutdown() {
+                return;
+            }
+            match source.next_frame() {
+                Ok(Some(frame)) => {
+                    captured.fetch_add(1, Ordering::Relaxed);
+                    if !writer.put(frame) {
+                        return;
+                    }
+                }
+                Ok(None) => {
+                    tracing::info!("frame source ended");
+                    return;
+                }
+                Err(e) => {
+                    tracing::warn!(error = %e, "camera lost; reconnecting");
+                    outbox.send(link::statustext(Severity::Warning, "mgmot: camera lost"));
+                    reported_lost = true;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// The inference loop: newest frame -> detections -> pose -> world observations -> tracker ->
+/// rate-limited track messages.
+fn infer(
+    config: &Config,
+    reader: SlotReader<Frame>,
+    mut detector: Box<dyn Detector>,
+    mut tracker: Tracker,
+    telemetry: &Mutex<Telemetry>,
+    outbox: &Outbox,
+    shutdown: &Shutdown,
+) -> RunStats {
+    let mut stats = RunStats::default();
+    let latency_us = (config.telemetry.camera_latency_ms * 1000.0) as u64;
+    let track_period_us = (1e6 / config.outputs.track_rate_hz) as u64;
+    let mut last_sent: HashMap<u64, u64> = HashMap::new();
+    let mut geolocator: Option<Geolocator> = None;
+    let mut previous_meta: Option<FrameMetadata> = None;
+    let mut last_frame_index: Option<u64> = None;
+    let mut no_pose_reported = false;
+    loop {
+        if shutdown.is_shutdown() {
+            break;
+        }
+        let frame = match reader.take(Duration::from_millis(100)) {
+            Taken::Value(f) => f,
+            Taken::Timeout => continue,
+            Taken::Closed => break,
+        };
+        let started = Instant::now();
+        let detections = match detector.detect(&frame) {
+            Ok(d) => d,
+            Err(e) => {
+                tracing::warn!(error = %e, "detector");
+                outbox.send(link::statustext(Severity::Warning, "mgmot: detector error"));
+                continue;
+            }
+        };
+        // The pose at the exposure time, on the autopilot clock.
+        let (frame_time, pose, water_amsl_m) = {
+            let Ok(t) = telemetry.lock() else { break };
+            let frame_time = match frame.captured {
+                CaptureTime::Autopilot(a) => Some(a),
+                CaptureTime::Companion(c) => t.clock.to_autopilot(c),
+            }
+            .map(|a| a.saturating_sub_us(latency_us));
+            let pose = frame_time.map(|ft| t.poses.pose_at(ft));
+            let water = config
+                .telemetry
+                .water_level_amsl_m
+                .or(t.home.map(|h| h.alt_m));
+            (frame_time, pose, water)
+        };
+        let meta = match (&pose, water_amsl_m) {
+            (Some(Ok(p)), Some(water)) => Some(FrameMetadata {
+                position: p.position,
+                height_above_sea_m: p.position.alt_m - water,
+                camera_attitude: p.camera_attitude,
+            }),
+            _ => None,
+        };
+        if meta.is_none() {
+            stats.frames_without_pose += 1;
+            if !no_pose_reported {
+                let why = match &pose {
+                    Some(Err(e)) => e.to_string(),
+                    Some(Ok(_)) => "water level unknown (no HOME_POSITION)".into(),
+                    None => "autopilot clock not known yet".into(),
+                };
+                tracing::warn!(frame = frame.index, %why, "no pose: tracking in the image only");
+                no_pose_reported = true;
+            }
+        } else {
+            no_pose_reported = false;
+        }
+        if geolocator.is_none() {
+            if let Some(m) = &meta {
+                match CameraModel::from_hfov(
+                    frame.width_px,
+                    frame.height_px,
+                    config.camera.hfov_deg,
+                ) {
+                    Ok(camera) => {
+                        geolocator = Some(
+                            Geolocator::new(m.nadir_on_water(), camera, config.geolocation.noise)
+                                .with_max_range_m(config.geolocation.max_range_m),
+                        )
+                    }
+                    Err(e) => tracing::warn!(error = %e, "camera model"),
+                }
+            }
+        }
+        let geometry: Option<FrameGeometry<'_>> = match (&geolocator, &meta) {
+            (Some(g), Some(m)) => g.frame(m).ok(),
+            _ => None,
+        };
+        let previous_geometry = match (&geolocator, &previous_meta, last_frame_index) {
+            (Some(g), Some(m), Some(prev)) if prev + 1 == frame.index => g.frame(m).ok(),
+            _ => None,
+        };
+        let detections: Vec<Detection> = detections
+            .into_iter()
+            .map(|d| Detection {
+                world: geometry.as_ref().and_then(|g| observe(g, &d)),
+                ..d
+            })
+            .collect();
+        let image_motion = match (&previous_geometry, &geometry) {
+            (Some(p), Some(c)) => p.image_motion_to(c).ok(),
+            _ => None,
+        };
+        let time_s = frame_time.map_or(frame.index as f64 / 30.0, |t| t.0 as f64 / 1e6);
+        let input = FrameInput {
+            frame_index: frame.index,
+            time_s,
+            image_size_px: (frame.width_px, frame.height_px),
+            detections,
+            image_motion,
+        };
+        let output = match tracker.step(&input) {
+            Ok(o) => o,
+            Err(e) => {
+                tracing::warn!(error = %e, frame = frame.index, "tracker rejected a frame");
+                continue;
+            }
+        };
+        stats.frames_processed += 1;
+        let merged_from: HashMap<u64, u64> = output
+            .merges
+            .iter()
+            .map(|m| (m.merged_into_id, m.new_id))
+            .collect();
+        let stamp = frame_time.unwrap_or(AutopilotTimeUs(0));
+        let (w, h) = (f64::from(frame.width_px), f64::from(frame.height_px));
+        for t in &output.tracks {
+            let due = last_sent
+                .get(&t.id)
+                .is_none_or(|&at| stamp.0.saturating_sub(at) >= track_period_us)
+                || merged_from.contains_key(&t.id);
+            if !due {
+                continue;
+            }
+            last_sent.insert(t.id, stamp.0);
+            let geo = match (&geolocator, &t.world, &meta) {
+                (Some(g), Some(ws), Some(_)) => {
+                    let mut p =
+                        g.reference()
+                            .to_geodetic(&Vector3::new(ws.pos_ne_m.x, ws.pos_ne_m.y, 0.0));
+                    if let Some(water) = water_amsl_m {
+                        p.alt_m = water;
+                    }
+                    Some(TrackGeo {
+                        position: p,
+                        vel_n_mps: ws.vel_ne_m_s.x,
+                        vel_e_mps: ws.vel_ne_m_s.y,
+                        h_std_m: ws.pos_cov_m2().trace().max(0.0).sqrt(),
+                    })
+                }
+                _ => None,
+            };
+            let report = TrackReport {
+                time: stamp,
+                track_id: t.id,
+                merged_from_id: merged_from.get(&t.id).copied(),
+                class_id: t.class_id,
+                confidence: t.score,
+                bbox_norm: [
+                    (t.bbox.x / w) as f32,
+                    (t.bbox.y / h) as f32,
+                    (t.bbox.w / w) as f32,
+                    (t.bbox.h / h) as f32,
+                ],
+                tracked: t.detection_index.is_some(),
+                geo,
+            };
+            outbox.send(link::mgmot_track(&report));
+            stats.track_messages += 1;
+            if config.outputs.target_absolute {
+                if let Some(m) = link::target_absolute(&report) {
+                    outbox.send(m);
+                }
+            }
+        }
+        tracing::debug!(
+            frame = frame.index,
+            tracks = output.tracks.len(),
+            elapsed_us = started.elapsed().as_micros() as u64,
+            "frame processed"
+        );
+        previous_meta = meta;
+        last_frame_index = Some(frame.index);
+    }
+    stats.frames_dropped = reader.dropped();
+    stats
+}
+
+/// The sea-surface observation of a detection: its box centre projected to the sea (as
+/// `mgmot track` does).
+fn observe(frame: &FrameGeometry<'_>, d: &Detection) -> Option<WorldObservation> {
+    let (cx, cy) = (d.bbox.x + d.bbox.w / 2.0, d.bbox.y + d.bbox.h / 2.0);
+    let g = frame.locate(Pixel::new(cx, cy)).ok()?;
+    Some(WorldObservation {
+        pos_ne_m: g.ned_m.xy(),
+        cov_ne_m2: g.cov_ne_m2,
+    })
+}

@@ -1,0 +1,242 @@
+//! Mapping the autopilot's clock onto the companion's monotonic clock.
+//!
+//! Two estimates of `offset = companion - autopilot`:
+//!
+//! - **TIMESYNC** (preferred): the companion sends its time `ts1`, the autopilot answers with its
+//!   own time `tc1`; if the answer arrives at `t_rx`, the autopilot read its clock about halfway,
+//!   so `offset = (ts1 + t_rx) / 2 - tc1`, wrong by at most half the round trip. The estimate
+//!   with the shortest round trip among the last [`TIMESYNC_WINDOW`] exchanges is used.
+//! - **Arrival time** (fallback, no TIMESYNC answers): every stamped message arrives some
+//!   non-negative transport delay after its stamp, so `arrival - stamp >= offset`; the minimum
+//!   over the last [`ARRIVAL_WINDOW`] messages approaches the offset from above by the smallest
+//!   delay seen.
+//!
+//! An autopilot reboot (its clock jumps back by more than [`REBOOT_JUMP_US`]) resets both.
+
+use super::{AutopilotTimeUs, CompanionTimeUs};
+use std::collections::VecDeque;
+
+/// TIMESYNC exchanges kept: at the usual 1 Hz, the last 16 s; enough to find one exchange that
+/// was not delayed by a busy link, short enough to follow clock drift (tens of ppm).
+pub const TIMESYNC_WINDOW: usize = 16;
+
+/// Stamped messages kept for the arrival-time estimate: at a few hundred messages per second,
+/// a few seconds of history.
+pub const ARRIVAL_WINDOW: usize = 1024;
+
+/// A jump back of the autopilot clock by more than this is a reboot, not reordering.
+pub const REBOOT_JUMP_US: u64 = 2_000_000;
+
+/// Which estimate the mapping currently uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClockSource {
+    /// No estimate yet.
+    Unknown,
+    /// Minimum arrival delay of stamped messages.
+    Arrival,
+    /// TIMESYNC round trips.
+    TimeSync,
+}
+
+/// One TIMESYNC exchange.
+#[derive(Debug, Clone, Copy)]
+struct Exchange {
+    offset_us: i64,
+    round_trip_us: u64,
+}
+
+/// The clock mapping between autopilot and companion.
+#[derive(Debug, Clone, Default)]
+pub struct ClockSync {
+    /// Recent TIMESYNC exchanges; the shortest round trip wins.
+    exchanges: VecDeque<Exchange>,
+    /// Recent `arrival - stamp` values (µs), for the fallback.
+    arrivals: VecDeque<i64>,
+    /// Latest autopilot stamp seen, to notice a reboot.
+    latest_autopilot: Option<AutopilotTimeUs>,
+}
+
+impl ClockSync {
+    /// An empty mapping.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Records a TIMESYNC answer: `sent` is our `ts1` (companion time we put in the request),
+    /// `autopilot` its `tc1`, `received` when the answer arrived. Returns the round trip (µs),
+    /// or `None` when the answer is inconsistent (arrived before it was sent).
+    pub fn observe_timesync(
+        &mut self,
+        sent: CompanionTimeUs,
+        autopilot: AutopilotTimeUs,
+        received: CompanionTimeUs,
+    ) -> Option<u64> {
+        let round_trip_us = received.0.checked_sub(sent.0)?;
+        self.note_autopilot_time(autopilot);
+        let midpoint = sent.0 as i128 + i128::from(round_trip_us / 2);
+        let offset_us = i64::try_from(midpoint - autopilot.0 as i128).ok()?;
+        if self.exchanges.len() == TIMESYNC_WINDOW {
+            self.exchanges.pop_front();
+        }
+        self.exchanges.push_back(Exchange {
+            offset_us,
+            round_trip_us,
+        });
+        Some(round_trip_us)
+    }
+
+    /// Records a message stamped `stamp` by the autopilot that arrived at `arrival`.
+    pub fn observe_arrival(&mut self, stamp: AutopilotTimeUs, arrival: CompanionTimeUs) {
+        self.note_autopilot_time(stamp);
+        let Ok(delta) = i64::try_from(arrival.0 as i128 - stamp.0 as i128) else {
+            return;
+        };
+        if self.arrivals.len() == ARRIVAL_WINDOW {
+            self.arrivals.pop_front();
+        }
+        self.arrivals.push_back(delta);
+    }
+
+    fn note_autopilot_time(&mut self, t: AutopilotTimeUs) {
+        if let Some(latest) = self.latest_autopilot {
+            if latest.0 > t.0 + REBOOT_JUMP_US {
+                tracing::warn!(
+                    from_us = latest.0,
+                    to_us = t.0,
+                    "autopilot clock jumped back: reboot; clock mapping reset"
+                );
+                self.exchanges.clear();
+                self.arrivals.clear();
+                self.latest_autopilot = Some(t);
+                return;
+            }
+        }
+        self.latest_autopilot = Some(self.latest_autopilot.map_or(t, |l| l.max(t)));
+    }
+
+    /// The estimate in use.
+    pub fn source(&self) -> ClockSource {
+        if !self.exchanges.is_empty() {
+            ClockSource::TimeSync
+        } else if !self.arrivals.is_empty() {
+            ClockSource::Arrival
+        } else {
+            ClockSource::Unknown
+        }
+    }
+
+    /// `companion - autopilot` (µs), if known.
+    pub fn offset_us(&self) -> Option<i64> {
+        if let Some(best) = self.exchanges.iter().min_by_key(|e| e.round_trip_us) {
+            return Some(best.offset_us);
+        }
+        self.arrivals.iter().copied().min()
+    }
+
+    /// The companion time of an autopilot time.
+    pub fn to_companion(&self, t: AutopilotTimeUs) -> Option<CompanionTimeUs> {
+        let v = t.0 as i128 + i128::from(self.offset_us()?);
+        u64::try_from(v).ok().map(CompanionTimeUs)
+    }
+
+    /// The autopilot time of a companion time (`None` before the autopilot booted or when no
+    /// estimate exists).
+    pub fn to_autopilot(&self, t: CompanionTimeUs) -> Option<AutopilotTimeUs> {
+        let v = t.0 as i128 - i128::from(self.offset_us()?);
+        u64::try_from(v).ok().map(AutopilotTimeUs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn unknown_until_observed() {
+        let c = ClockSync::new();
+        assert_eq!(c.source(), ClockSource::Unknown);
+        assert_eq!(c.to_autopilot(CompanionTimeUs(5)), None);
+    }
+
+    #[test]
+    fn timesync_beats_arrival_and_shortest_round_trip_wins() {
+        let mut c = ClockSync::new();
+        // True offset: companion = autopilot + 1_000_000.
+        c.observe_arrival(AutopilotTimeUs(10_000), CompanionTimeUs(1_015_000));
+        assert_eq!(c.source(), ClockSource::Arrival);
+        assert_eq!(c.offset_us(), Some(1_005_000));
+        // A slow exchange (asymmetric: 30 ms out, 10 ms back) and a fast symmetric one.
+        c.observe_timesync(
+            CompanionTimeUs(1_100_000),
+            AutopilotTimeUs(130_000),
+            CompanionTimeUs(1_140_000),
+        );
+        c.observe_timesync(
+            CompanionTimeUs(1_200_000),
+            AutopilotTimeUs(201_000),
+            CompanionTimeUs(1_202_000),
+        );
+        assert_eq!(c.source(), ClockSource::TimeSync);
+        assert_eq!(c.offset_us(), Some(1_000_000));
+        assert_eq!(
+            c.to_autopilot(CompanionTimeUs(1_500_000)),
+            Some(AutopilotTimeUs(500_000))
+        );
+        assert_eq!(
+            c.to_companion(AutopilotTimeUs(500_000)),
+            Some(CompanionTimeUs(1_500_000))
+        );
+    }
+
+    #[test]
+    fn answer_before_request_is_rejected() {
+        let mut c = ClockSync::new();
+        assert_eq!(
+            c.observe_timesync(CompanionTimeUs(10), AutopilotTimeUs(5), CompanionTimeUs(9)),
+            None
+        );
+        assert_eq!(c.source(), ClockSource::Unknown);
+    }
+
+    #[test]
+    fn reboot_resets() {
+        let mut c = ClockSync::new();
+        c.observe_arrival(AutopilotTimeUs(100_000_000), CompanionTimeUs(100_500_000));
+        c.observe_arrival(AutopilotTimeUs(1_000), CompanionTimeUs(200_001_000));
+        assert_eq!(c.offset_us(), Some(200_000_000));
+    }
+
+    proptest! {
+        /// With random non-negative delays the arrival estimate is never below the true offset
+        /// and is above it by exactly the smallest delay.
+        #[test]
+        fn arrival_estimate_bounds(offset in 0i64..1_000_000_000, delays in proptest::collection::vec(0u64..50_000, 1..200)) {
+            let mut c = ClockSync::new();
+            for (k, d) in delays.iter().enumerate() {
+                let stamp = 1_000_000 + 20_000 * k as u64;
+                c.observe_arrival(AutopilotTimeUs(stamp), CompanionTimeUs((stamp as i64 + offset) as u64 + d));
+            }
+            let min_delay = *delays.iter().min().unwrap() as i64;
+            prop_assert_eq!(c.offset_us(), Some(offset + min_delay));
+        }
+
+        /// A TIMESYNC estimate is off by at most half the round trip of the best exchange.
+        #[test]
+        fn timesync_error_within_half_round_trip(offset in 0i64..1_000_000_000, legs in proptest::collection::vec((0u64..20_000, 0u64..20_000), 1..=TIMESYNC_WINDOW)) {
+            let mut c = ClockSync::new();
+            let mut best_rtt = u64::MAX;
+            for (k, (up, down)) in legs.iter().enumerate() {
+                let sent = 2_000_000_000 + 1_000_000 * k as u64;
+                let autopilot = (sent as i64 - offset + *up as i64).max(0) as u64;
+                let received = (autopilot as i64 + offset) as u64 + down;
+                if let Some(rtt) = c.observe_timesync(CompanionTimeUs(sent), AutopilotTimeUs(autopilot), CompanionTimeUs(received)) {
+                    best_rtt = best_rtt.min(rtt);
+                }
+            }
+            if let Some(est) = c.offset_us() {
+                prop_assert!((est - offset).unsigned_abs() <= best_rtt / 2 + 1);
+            }
+        }
+    }
+}
