@@ -187,19 +187,21 @@ fn clip(b: [f64; 4], w_img: f64, h_img: f64) -> Option<[f64; 4]> {
     })
 }
 
-/// MOTChallenge detection lines: `frame,-1,x,y,w,h,score,-1,-1,-1`.
+/// MOTChallenge detection lines: `frame,-1,x,y,w,h,score,class,-1,-1` (the class column carries
+/// the SeaDronesSee category id, which `mgmot track` reads for its class-wise ReID).
 pub fn mot_det_lines(frame_index: u64, dets: &[Detection]) -> String {
     let mut s = String::new();
     for d in dets {
         let _ = writeln!(
             s,
-            "{},-1,{:.2},{:.2},{:.2},{:.2},{:.4},-1,-1,-1",
+            "{},-1,{:.2},{:.2},{:.2},{:.2},{:.4},{},-1,-1",
             frame_index + 1,
             d.bbox[0],
             d.bbox[1],
             d.bbox[2],
             d.bbox[3],
-            d.score
+            d.score,
+            d.category_id
         );
     }
     s

@@ -15,7 +15,7 @@ pub struct Args {
     scenario: ScenarioArgs,
     /// Output file: `.json` for COCO results (`[{image_id, category_id, bbox, score}]`, image
     /// ids as in the SeaDronesSee JSON), `.txt` for MOT detections
-    /// (`frame,-1,x,y,w,h,score,-1,-1,-1`).
+    /// (`frame,-1,x,y,w,h,score,class,-1,-1`).
     #[arg(long, short = 'o')]
     out: PathBuf,
     /// Folder for the ground truth (gt/gt.txt, world.csv, camera.csv, annotations.json);
