@@ -4,8 +4,8 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-mod detect;
 mod check_config;
+mod detect;
 mod eval;
 mod geolocate;
 mod run;

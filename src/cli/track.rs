@@ -8,7 +8,7 @@ use mgmot::eval::BoxXywh;
 use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
-use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, Pixel, PoseNoise};
+use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, PoseNoise};
 use mgmot::track::{
     track_sequence, BBox, Detection, FrameInput, MergeEvent, SequenceTrack, Tracker, TrackerParams,
     WorldObservation,
@@ -277,17 +277,6 @@ fn load_detections(
     Ok(by_image)
 }
 
-/// Geolocates a box's centre into a world observation (None when it misses the sea).
-fn observe(frame: &FrameGeometry<'_>, bbox: &[f64; 4]) -> Option<WorldObservation> {
-    let g = frame
-        .locate(Pixel::new(bbox[0] + bbox[2] / 2.0, bbox[1] + bbox[3] / 2.0))
-        .ok()?;
-    Some(WorldObservation {
-        pos_ne_m: g.ned_m.xy(),
-        cov_ne_m2: g.cov_ne_m2,
-    })
-}
-
 fn track_video(
     args: &Args,
     params: &TrackerParams,
@@ -340,11 +329,16 @@ fn track_video(
             .get(&f.image_id)
             .map(|dets| {
                 dets.iter()
-                    .map(|(class_id, b, score)| Detection {
-                        bbox: BBox::new(b[0], b[1], b[2], b[3]),
-                        score: *score as f32,
-                        class_id: *class_id,
-                        world: geometry.as_ref().and_then(|g| observe(g, b)),
+                    .map(|(class_id, b, score)| {
+                        let bbox = BBox::new(b[0], b[1], b[2], b[3]);
+                        Detection {
+                            bbox,
+                            score: *score as f32,
+                            class_id: *class_id,
+                            world: geometry
+                                .as_ref()
+                                .and_then(|g| WorldObservation::of_box(g, &bbox)),
+                        }
                     })
                     .collect()
             })

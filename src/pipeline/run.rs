@@ -5,7 +5,7 @@
 use super::{newest_slot, Detector, ReplayDetector, Shutdown, SlotReader, SlotWriter, Taken};
 use crate::camera::{CaptureTime, Frame, SimSocketSource};
 use crate::config::{Config, DetectorConfig, FramesConfig};
-use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator, Pixel};
+use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator};
 use crate::mavlink::{
     self as link, dialect::MavMessage, Incoming, Severity, TrackGeo, TrackReport,
 };
@@ -507,7 +507,9 @@ fn infer(
         let detections: Vec<Detection> = detections
             .into_iter()
             .map(|d| Detection {
-                world: geometry.as_ref().and_then(|g| observe(g, &d)),
+                world: geometry
+                    .as_ref()
+                    .and_then(|g| WorldObservation::of_box(g, &d.bbox)),
                 ..d
             })
             .collect();
@@ -598,15 +600,4 @@ fn infer(
     }
     stats.frames_dropped = reader.dropped();
     stats
-}
-
-/// The sea-surface observation of a detection: its box centre projected to the sea (as
-/// `mgmot track` does).
-fn observe(frame: &FrameGeometry<'_>, d: &Detection) -> Option<WorldObservation> {
-    let (cx, cy) = (d.bbox.x + d.bbox.w / 2.0, d.bbox.y + d.bbox.h / 2.0);
-    let g = frame.locate(Pixel::new(cx, cy)).ok()?;
-    Some(WorldObservation {
-        pos_ne_m: g.ned_m.xy(),
-        cov_ne_m2: g.cov_ne_m2,
-    })
 }

@@ -14,6 +14,19 @@ pub struct WorldObservation {
     pub cov_ne_m2: Matrix2<f64>,
 }
 
+impl WorldObservation {
+    /// The sea-surface observation of a box: its centre (the paper's `X^2D` hat, Sec. 3.2)
+    /// geolocated in `frame`; `None` when the centre's ray misses the sea.
+    pub fn of_box(frame: &crate::geo::FrameGeometry<'_>, bbox: &super::BBox) -> Option<Self> {
+        let (cx, cy) = bbox.center();
+        let g = frame.locate(crate::geo::Pixel::new(cx, cy)).ok()?;
+        Some(Self {
+            pos_ne_m: g.ned_m.xy(),
+            cov_ne_m2: g.cov_ne_m2,
+        })
+    }
+}
+
 /// A track's world state: position, velocity and the full 4x4 covariance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct WorldState {
