@@ -37,4 +37,8 @@ cargo fmt --all --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 echo "== cargo test"
+# The runtime's loopback tests drive the simulator binary that this same build produces
+# (building it separately with `cargo build -p mgmot-sim` would re-resolve features and
+# recompile its dependencies).
+export MGMOT_SIM_BIN="$PWD/target/debug/mgmot-sim"
 cargo test --workspace
