@@ -39,6 +39,11 @@ pub struct DroneState {
 }
 
 impl DroneState {
+    /// Height above the water (= above home, which sits on the waterline).
+    pub fn altitude_m(&self) -> f64 {
+        -self.pos_ned_m[2]
+    }
+
     /// Gimbal yaw relative to the vehicle heading, in (-180, 180].
     pub fn gimbal_yaw_vehicle_deg(&self) -> f64 {
         wrap_180(self.cam_heading_deg - self.yaw_deg)

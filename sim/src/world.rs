@@ -41,36 +41,10 @@ struct FaultNoise {
     gps_ne_m: [f64; 2],
 }
 
-/// What the autopilot reports at one instant (truth plus faults).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Reported {
-    /// Vehicle position, local NED (GPS noise and altitude bias applied).
-    pub pos_ned_m: [f64; 3],
-    /// Velocity NED.
-    pub vel_ned_mps: [f64; 3],
-    /// Vehicle roll.
-    pub roll_deg: f64,
-    /// Vehicle pitch.
-    pub pitch_deg: f64,
-    /// Vehicle yaw in [0, 360).
-    pub yaw_deg: f64,
-    /// Camera heading (bearing) in [0, 360).
-    pub cam_heading_deg: f64,
-    /// Camera pitch below the horizon.
-    pub cam_pitch_deg: f64,
-}
-
-impl Reported {
-    /// Height above the water (= above home, which sits on the waterline).
-    pub fn altitude_m(&self) -> f64 {
-        -self.pos_ned_m[2]
-    }
-
-    /// Gimbal yaw relative to the vehicle heading, in (-180, 180].
-    pub fn gimbal_yaw_vehicle_deg(&self) -> f64 {
-        crate::motion::wrap_180(self.cam_heading_deg - self.yaw_deg)
-    }
-}
+/// What the autopilot reports at one instant: the same quantities as the truth
+/// ([`DroneState`]), with the scenario's faults applied (GPS noise, altitude bias, attitude
+/// bias and noise).
+pub type Reported = DroneState;
 
 impl World {
     /// Builds the world of `scenario` with `seed`.
