@@ -25,3 +25,11 @@ if [ ${#need_apt[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
 fi
+
+# A debug build of the workspace plus the Python tools takes about 8 GB; stop early and say so
+# rather than failing in the middle of a link.
+avail_kb="$(df -Pk . | awk 'NR==2 {print $4}')"
+if [ -n "$avail_kb" ] && [ "$avail_kb" -lt $((8 * 1024 * 1024)) ] && [ ! -d target/debug ]; then
+  echo "setup: only $((avail_kb / 1024)) MB free on $(df -P . | awk 'NR==2 {print $6}'); building needs about 8 GB. Free some space and re-run." >&2
+  exit 1
+fi
