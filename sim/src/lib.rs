@@ -6,6 +6,7 @@
 
 pub mod detections;
 pub mod framing;
+pub mod monitor;
 pub mod motion;
 pub mod objects;
 pub mod output;

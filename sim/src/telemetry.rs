@@ -7,16 +7,16 @@ use crate::scenario::YawFrame;
 use crate::world::World;
 // MOUNT_ORIENTATION is deprecated in common.xml but still what many gimbal drivers and
 // ground stations read; the simulator sends it alongside the gimbal protocol v2 message.
-use mavlink::dialects::common::{
+use mavlink::Message;
+use mgmot::mavlink::dialect::{
     GimbalDeviceFlags, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType,
 };
 #[allow(deprecated)]
-use mavlink::dialects::common::{
+use mgmot::mavlink::dialect::{
     MavMessage, ATTITUDE_DATA, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
     GIMBAL_DEVICE_ATTITUDE_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,
     HOME_POSITION_DATA, MOUNT_ORIENTATION_DATA, SYSTEM_TIME_DATA, TIMESYNC_DATA,
 };
-use mavlink::Message;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -2,8 +2,9 @@
 //! run loop queues, answers TIMESYNC and commands, and reconnects when a TCP or serial peer
 //! goes away. Never panics on network errors; they are logged.
 
-use mavlink::dialects::common::MavMessage;
 use mavlink::{MavConnection, MavHeader, MavlinkVersion};
+use mgmot::mavlink::dialect::MavMessage;
+use mgmot_sim::monitor::{TrackCheck, TrackMonitor};
 use mgmot_sim::telemetry::{Autopilot, Scheduler};
 use mgmot_sim::world::World;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
@@ -58,6 +59,7 @@ impl Link {
         scheduler: Arc<Mutex<Scheduler>>,
         clock: Arc<SimClock>,
         blocking: bool,
+        monitor: Option<Arc<Mutex<TrackMonitor>>>,
     ) -> anyhow::Result<Link> {
         // Reject malformed addresses at once instead of retrying forever.
         let proto = address.split(':').next().unwrap_or("");
@@ -75,7 +77,7 @@ impl Link {
         let sent2 = sent.clone();
         std::thread::Builder::new()
             .name("mavlink-link".into())
-            .spawn(move || link_thread(address, world, scheduler, clock, rx, sent2))?;
+            .spawn(move || link_thread(address, world, scheduler, clock, rx, sent2, monitor))?;
         Ok(Link {
             tx,
             blocking,
@@ -124,6 +126,7 @@ fn link_thread(
     clock: Arc<SimClock>,
     rx: Receiver<MavMessage>,
     sent: Arc<AtomicU64>,
+    monitor: Option<Arc<Mutex<TrackMonitor>>>,
 ) {
     let seq = Arc::new(AtomicU8::new(0));
     let stream_oriented = address.starts_with("tcp") || address.starts_with("serial");
@@ -149,24 +152,28 @@ fn link_thread(
         };
         let broken = Arc::new(AtomicBool::new(false));
         {
-            let (conn, world, scheduler, clock, broken, seq) = (
+            let (conn, world, scheduler, clock, broken, seq, monitor) = (
                 conn.clone(),
                 world.clone(),
                 scheduler.clone(),
                 clock.clone(),
                 broken.clone(),
                 seq.clone(),
+                monitor.clone(),
             );
             let spawned = std::thread::Builder::new()
                 .name("mavlink-recv".into())
                 .spawn(move || {
                     receive_loop(
                         conn,
-                        &world,
-                        &scheduler,
-                        &clock,
+                        &Receiving {
+                            world: &world,
+                            scheduler: &scheduler,
+                            clock: &clock,
+                            seq: &seq,
+                            monitor: monitor.as_deref(),
+                        },
                         &broken,
-                        &seq,
                         stream_oriented,
                     )
                 });
@@ -198,20 +205,44 @@ fn link_thread(
     }
 }
 
-fn receive_loop(
-    conn: Conn,
-    world: &World,
-    scheduler: &Mutex<Scheduler>,
-    clock: &SimClock,
-    broken: &AtomicBool,
-    seq: &AtomicU8,
-    stream_oriented: bool,
-) {
+/// What the receive thread reads and updates besides the connection.
+struct Receiving<'a> {
+    world: &'a World,
+    scheduler: &'a Mutex<Scheduler>,
+    clock: &'a SimClock,
+    seq: &'a AtomicU8,
+    monitor: Option<&'a Mutex<TrackMonitor>>,
+}
+
+fn receive_loop(conn: Conn, ctx: &Receiving<'_>, broken: &AtomicBool, stream_oriented: bool) {
+    let Receiving {
+        world,
+        scheduler,
+        clock,
+        seq,
+        monitor,
+    } = *ctx;
     let Ok(autopilot) = Autopilot::new(world) else {
         return;
     };
     while !broken.load(Ordering::Relaxed) {
         match conn.recv() {
+            Ok((_, MavMessage::MGMOT_TRACK(track))) => {
+                // mgmot's output, checked against the truth when a monitor is attached.
+                if let Some(Ok(mut mon)) = monitor.map(|m| m.lock()) {
+                    match mon.observe(world, &track) {
+                        TrackCheck::Matched { object_id, error_m } => tracing::debug!(
+                            track = track.track_id,
+                            object = object_id,
+                            error_m,
+                            "mgmot track"
+                        ),
+                        other => {
+                            tracing::debug!(track = track.track_id, check = ?other, "mgmot track")
+                        }
+                    }
+                }
+            }
             Ok((from, msg)) => {
                 // System ids above 255 exist only in MAVLink 2 extensions of the header; the
                 // reply targets are u8 fields.

@@ -6,6 +6,7 @@ use super::link::{Link, SimClock};
 use super::render::TruthWriter;
 use super::ScenarioArgs;
 use anyhow::Context;
+use mgmot_sim::monitor::{MonitorSummary, TrackMonitor};
 use mgmot_sim::render::Renderer;
 use mgmot_sim::telemetry::{Autopilot, Scheduler};
 use mgmot_sim::truth::{frame_truth, Optics};
@@ -39,7 +40,15 @@ pub struct Args {
     /// Also write the ground truth of every frame into this folder (as `render` does).
     #[arg(long)]
     truth_out: Option<PathBuf>,
+    /// Write the check of mgmot's MGMOT_TRACK messages against the ground truth (geolocation
+    /// error, ids per object) to this JSON file at the end. The check itself always runs when
+    /// --mavlink is given and is logged every few seconds.
+    #[arg(long)]
+    track_report: Option<PathBuf>,
 }
+
+/// How often the check of mgmot's tracks is logged while messages arrive.
+const REPORT_EVERY: Duration = Duration::from_secs(5);
 
 /// Runs the scenario.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -53,6 +62,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let autopilot = Autopilot::new(&world).context("origin invalid")?;
     let scheduler = Arc::new(Mutex::new(Scheduler::new(&world)));
     let clock = Arc::new(SimClock::default());
+    let monitor = Arc::new(Mutex::new(
+        TrackMonitor::new(&world).context("origin invalid")?,
+    ));
     let link = match &args.mavlink {
         Some(addr) => Some(Link::start(
             addr.clone(),
@@ -60,9 +72,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             scheduler.clone(),
             clock.clone(),
             args.lockstep,
+            Some(monitor.clone()),
         )?),
         None => None,
     };
+    let mut last_report = (Instant::now(), 0u64);
     let (w, h) = (
         world.scenario.camera.width_px,
         world.scenario.camera.height_px,
@@ -142,6 +156,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             k += 1;
         }
+        if last_report.0.elapsed() >= REPORT_EVERY {
+            if let Ok(mon) = monitor.lock() {
+                if mon.messages() > last_report.1 {
+                    log_tracks(&mon.summary(), "mgmot tracks so far");
+                }
+                last_report = (Instant::now(), mon.messages());
+            }
+        }
     }
     if let Some(tw) = truth {
         tw.finish(&world, "jpg")?;
@@ -161,5 +183,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         elapsed_s = start.elapsed().as_secs_f64(),
         "simulation finished"
     );
+    if link.is_some() {
+        let summary = monitor
+            .lock()
+            .map_err(|_| anyhow::anyhow!("track monitor poisoned"))?
+            .summary();
+        log_tracks(&summary, "mgmot tracks");
+        for o in &summary.objects {
+            tracing::info!(
+                object = o.object_id,
+                track_ids = ?o.track_ids,
+                latest = o.latest_track_id,
+                "object reported as"
+            );
+        }
+        if let Some(path) = &args.track_report {
+            let json = serde_json::to_string_pretty(&summary)?;
+            std::fs::write(path, json + "\n")
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+    }
     Ok(())
+}
+
+/// One log line about the MGMOT_TRACK messages checked so far.
+fn log_tracks(s: &MonitorSummary, what: &str) {
+    let m = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.2}"));
+    tracing::info!(
+        messages = s.messages,
+        track_ids = s.track_ids,
+        matched = s.matched,
+        false_tracks = s.false_tracks,
+        without_geolocation = s.without_geolocation,
+        error_median_m = %m(s.error_median_m),
+        error_p95_m = %m(s.error_p95_m),
+        error_max_m = %m(s.error_max_m),
+        "{what}"
+    );
 }

@@ -1,0 +1,316 @@
+//! The bench's view of mgmot's output: every MGMOT_TRACK that mgmot sends to the simulated
+//! autopilot is checked against the ground truth of the instant it describes, so a bench user
+//! sees geolocated tracks arrive and how far off they are. Pure: no IO, no clock.
+//!
+//! A message is associated with the nearest true object of the same class (any class when the
+//! message says unknown) that exists at the message's capture time, within
+//! [`ASSOCIATION_GATE_M`]; its geolocation error is the horizontal distance to that object's
+//! reference point on the sea surface.
+
+use crate::world::World;
+use mgmot::geo::{GeoError, Geodetic, LocalTangentFrame};
+use mgmot::mavlink::dialect::{MgmotObjectClass, MgmotTrackFlags, MGMOT_TRACK_DATA};
+use nalgebra::Vector3;
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// A report further than this from every true object of its class is counted as a false
+/// track rather than as a large error (m). Boats are up to ~15 m long and their box centre is
+/// not their reference point, hence the generous gate.
+pub const ASSOCIATION_GATE_M: f64 = 20.0;
+
+/// What one MGMOT_TRACK was checked to be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TrackCheck {
+    /// The message carries no geolocation (no usable pose for its frame).
+    NoGeolocation,
+    /// Its capture time is outside the scenario.
+    OutOfScenario,
+    /// No true object of its class within the gate.
+    FalseTrack {
+        /// Distance to the nearest true object of the class, if there is one (m).
+        nearest_m: Option<f64>,
+    },
+    /// Associated with a true object.
+    Matched {
+        /// The object's id in the ground truth.
+        object_id: u32,
+        /// Horizontal geolocation error (m).
+        error_m: f64,
+    },
+}
+
+/// Aggregates the checks of a run.
+#[derive(Debug, Clone)]
+pub struct TrackMonitor {
+    frame: LocalTangentFrame,
+    boot_time_s: f64,
+    camera_offset_s: f64,
+    messages: u64,
+    without_geolocation: u64,
+    out_of_scenario: u64,
+    false_tracks: u64,
+    errors_m: Vec<f64>,
+    /// Per true object: every mgmot track id associated with it, and the latest one.
+    ids: BTreeMap<u32, (BTreeSet<u32>, u32)>,
+    track_ids: BTreeSet<u32>,
+}
+
+/// The summary printed (and written as JSON) at the end of a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MonitorSummary {
+    /// MGMOT_TRACK messages received.
+    pub messages: u64,
+    /// Of those, without a geolocation.
+    pub without_geolocation: u64,
+    /// Of those, with a capture time outside the scenario.
+    pub out_of_scenario: u64,
+    /// Of those, geolocated but far from every true object of their class.
+    pub false_tracks: u64,
+    /// Of those, associated with a true object.
+    pub matched: u64,
+    /// Distinct mgmot track ids seen.
+    pub track_ids: usize,
+    /// Median horizontal geolocation error of the matched messages (m).
+    pub error_median_m: Option<f64>,
+    /// 95th percentile of the error (m).
+    pub error_p95_m: Option<f64>,
+    /// Largest error (m).
+    pub error_max_m: Option<f64>,
+    /// Per true object: the mgmot track ids associated with it (one id = the identity
+    /// survived everything the scenario did), and the latest one.
+    pub objects: Vec<ObjectIds>,
+}
+
+/// The mgmot track ids one true object was reported under.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ObjectIds {
+    /// The object's id in the ground truth.
+    pub object_id: u32,
+    /// Every track id associated with it, ascending.
+    pub track_ids: Vec<u32>,
+    /// The id of its latest message.
+    pub latest_track_id: u32,
+}
+
+impl TrackMonitor {
+    /// A monitor for `world`; errors when the scenario's origin is not a valid position.
+    pub fn new(world: &World) -> Result<Self, GeoError> {
+        let o = &world.scenario.origin;
+        let origin = Geodetic::new(o.lat_deg, o.lon_deg, o.alt_amsl_m)?;
+        Ok(Self {
+            frame: LocalTangentFrame::new(origin),
+            boot_time_s: world.scenario.telemetry.boot_time_s,
+            camera_offset_s: world.scenario.faults.camera_time_offset_ms / 1000.0,
+            messages: 0,
+            without_geolocation: 0,
+            out_of_scenario: 0,
+            false_tracks: 0,
+            errors_m: Vec::new(),
+            ids: BTreeMap::new(),
+            track_ids: BTreeSet::new(),
+        })
+    }
+
+    /// Checks one message against the truth of the instant it describes.
+    pub fn observe(&mut self, world: &World, m: &MGMOT_TRACK_DATA) -> TrackCheck {
+        self.messages += 1;
+        self.track_ids.insert(m.track_id);
+        let check = self.check(world, m);
+        match check {
+            TrackCheck::NoGeolocation => self.without_geolocation += 1,
+            TrackCheck::OutOfScenario => self.out_of_scenario += 1,
+            TrackCheck::FalseTrack { .. } => self.false_tracks += 1,
+            TrackCheck::Matched { object_id, error_m } => {
+                self.errors_m.push(error_m);
+                let entry = self
+                    .ids
+                    .entry(object_id)
+                    .or_insert_with(|| (BTreeSet::new(), m.track_id));
+                entry.0.insert(m.track_id);
+                entry.1 = m.track_id;
+            }
+        }
+        check
+    }
+
+    fn check(&self, world: &World, m: &MGMOT_TRACK_DATA) -> TrackCheck {
+        if !m
+            .flags
+            .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID)
+        {
+            return TrackCheck::NoGeolocation;
+        }
+        // time_usec is the frame's stamp on the autopilot clock, which includes the camera's
+        // clock offset fault; the truth is at the true capture time.
+        let t_s = m.time_usec as f64 / 1e6 - self.boot_time_s - self.camera_offset_s;
+        if !(t_s.is_finite() && t_s >= 0.0 && t_s <= world.scenario.duration_s + 1.0) {
+            return TrackCheck::OutOfScenario;
+        }
+        let Ok(at) = Geodetic::new(
+            f64::from(m.lat) * 1e-7,
+            f64::from(m.lon) * 1e-7,
+            f64::from(m.alt) / 1000.0,
+        ) else {
+            return TrackCheck::FalseTrack { nearest_m: None };
+        };
+        let p = self.frame.to_ned(&at);
+        let nearest = world
+            .objects_at(t_s)
+            .into_iter()
+            .filter(|o| {
+                m.object_class == MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN
+                    || o.class.category_id() == m.object_class as u32
+            })
+            .map(|o| {
+                let q = Vector3::from(o.pos_ned_m);
+                (o.id, (p.xy() - q.xy()).norm())
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match nearest {
+            Some((object_id, error_m)) if error_m <= ASSOCIATION_GATE_M => {
+                TrackCheck::Matched { object_id, error_m }
+            }
+            Some((_, d)) => TrackCheck::FalseTrack { nearest_m: Some(d) },
+            None => TrackCheck::FalseTrack { nearest_m: None },
+        }
+    }
+
+    /// Messages received so far.
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    /// The summary of everything observed so far.
+    pub fn summary(&self) -> MonitorSummary {
+        let mut e = self.errors_m.clone();
+        e.sort_by(f64::total_cmp);
+        let pct = |q: f64| -> Option<f64> {
+            if e.is_empty() {
+                return None;
+            }
+            let k = ((e.len() - 1) as f64 * q).round() as usize;
+            e.get(k).copied()
+        };
+        MonitorSummary {
+            messages: self.messages,
+            without_geolocation: self.without_geolocation,
+            out_of_scenario: self.out_of_scenario,
+            false_tracks: self.false_tracks,
+            matched: e.len() as u64,
+            track_ids: self.track_ids.len(),
+            error_median_m: pct(0.5),
+            error_p95_m: pct(0.95),
+            error_max_m: e.last().copied(),
+            objects: self
+                .ids
+                .iter()
+                .map(|(&object_id, (ids, latest))| ObjectIds {
+                    object_id,
+                    track_ids: ids.iter().copied().collect(),
+                    latest_track_id: *latest,
+                })
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+
+    fn world() -> World {
+        let s = Scenario::load("calm_baseline").unwrap();
+        World::new(s, 7)
+    }
+
+    fn message(world: &World, t_s: f64, ned: [f64; 3], class: u32, id: u32) -> MGMOT_TRACK_DATA {
+        let o = &world.scenario.origin;
+        let frame =
+            LocalTangentFrame::new(Geodetic::new(o.lat_deg, o.lon_deg, o.alt_amsl_m).unwrap());
+        let g = frame.to_geodetic(&Vector3::from(ned));
+        MGMOT_TRACK_DATA {
+            time_usec: world.frame_stamp_us(t_s),
+            track_id: id,
+            lat: (g.lat_deg * 1e7).round() as i32,
+            lon: (g.lon_deg * 1e7).round() as i32,
+            alt: (g.alt_m * 1000.0).round() as i32,
+            object_class: match class {
+                1 => MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER,
+                2 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BOAT,
+                _ => MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN,
+            },
+            flags: MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_report_at_a_true_object_matches_it_with_the_offset_as_error() {
+        let w = world();
+        let t = 3.0;
+        let o = w.objects_at(t)[0].clone();
+        let class = o.class.category_id();
+        let mut mon = TrackMonitor::new(&w).unwrap();
+        let at = [o.pos_ned_m[0] + 1.5, o.pos_ned_m[1] - 2.0, 0.0];
+        match mon.observe(&w, &message(&w, t, at, class, 9)) {
+            TrackCheck::Matched { object_id, error_m } => {
+                assert_eq!(object_id, o.id);
+                assert!((error_m - 2.5).abs() < 0.01, "error {error_m}");
+            }
+            other => panic!("expected a match, got {other:?}"),
+        }
+        let s = mon.summary();
+        assert_eq!((s.messages, s.matched, s.track_ids), (1, 1, 1));
+        assert_eq!(s.objects[0].track_ids, vec![9]);
+    }
+
+    #[test]
+    fn far_reports_invalid_geolocation_and_wrong_times_are_told_apart() {
+        let w = world();
+        let mut mon = TrackMonitor::new(&w).unwrap();
+        let far = message(&w, 2.0, [5_000.0, 5_000.0, 0.0], 0, 1);
+        assert!(matches!(
+            mon.observe(&w, &far),
+            TrackCheck::FalseTrack { nearest_m: Some(d) } if d > ASSOCIATION_GATE_M
+        ));
+        let mut no_geo = far.clone();
+        no_geo.flags = MgmotTrackFlags::empty();
+        assert_eq!(mon.observe(&w, &no_geo), TrackCheck::NoGeolocation);
+        let mut late = far.clone();
+        late.time_usec = w.frame_stamp_us(w.scenario.duration_s + 60.0);
+        assert_eq!(mon.observe(&w, &late), TrackCheck::OutOfScenario);
+        let s = mon.summary();
+        assert_eq!(
+            (
+                s.messages,
+                s.false_tracks,
+                s.without_geolocation,
+                s.out_of_scenario
+            ),
+            (3, 1, 1, 1)
+        );
+        assert_eq!(s.error_median_m, None);
+    }
+
+    #[test]
+    fn an_object_reported_under_two_ids_lists_both() {
+        let w = world();
+        let o = w.objects_at(1.0)[0].clone();
+        let class = o.class.category_id();
+        let mut mon = TrackMonitor::new(&w).unwrap();
+        mon.observe(
+            &w,
+            &message(&w, 1.0, w.objects_at(1.0)[0].pos_ned_m, class, 4),
+        );
+        mon.observe(
+            &w,
+            &message(&w, 2.0, w.objects_at(2.0)[0].pos_ned_m, class, 11),
+        );
+        let s = mon.summary();
+        assert_eq!(s.objects[0].track_ids, vec![4, 11]);
+        assert_eq!(s.objects[0].latest_track_id, 11);
+        assert!(s.error_max_m.unwrap() < 0.01);
+    }
+}
