@@ -250,7 +250,7 @@ mod tests {
     fn a_report_at_a_true_object_matches_it_with_the_offset_as_error() {
         let w = world();
         let t = 3.0;
-        let o = w.objects_at(t)[0].clone();
+        let o = w.objects_at(t)[0];
         let class = o.class.category_id();
         let mut mon = TrackMonitor::new(&w).unwrap();
         let at = [o.pos_ned_m[0] + 1.5, o.pos_ned_m[1] - 2.0, 0.0];
@@ -297,7 +297,7 @@ mod tests {
     #[test]
     fn an_object_reported_under_two_ids_lists_both() {
         let w = world();
-        let o = w.objects_at(1.0)[0].clone();
+        let o = w.objects_at(1.0)[0];
         let class = o.class.category_id();
         let mut mon = TrackMonitor::new(&w).unwrap();
         mon.observe(
