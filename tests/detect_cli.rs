@@ -72,10 +72,58 @@ fn detect_writes_coco_json_and_drawn_images() {
         assert_eq!(name, ["swimmer", "boat"][cat as usize - 1]);
         assert!([1, 2].contains(&r["image_id"].as_u64().unwrap()));
     }
-    for stem in ["sea_2000003", "sea_2000011"] {
+    for stem in [
+        "sim_boats_crossing_s100002_000631",
+        "sim_leave_and_return_s100002_000001",
+    ] {
         let drawn = image::open(dir.path().join(format!("{stem}.png"))).unwrap();
-        assert_eq!((drawn.width(), drawn.height()), (480, 320));
+        assert_eq!((drawn.width(), drawn.height()), (1280, 720));
     }
+}
+
+/// `mgmot detect` without `--backend`: its summary's first line.
+fn default_backend_line(ort_dylib: Option<&Path>) -> String {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_mgmot"));
+    cmd.args(["detect", "--model"])
+        .arg(root().join(INT8))
+        .arg(fixtures());
+    match ort_dylib {
+        Some(lib) => cmd.env("ORT_DYLIB_PATH", lib),
+        None => cmd.env_remove("ORT_DYLIB_PATH"),
+    };
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .next()
+        .unwrap_or_default()
+        .to_string()
+}
+
+#[test]
+fn default_backend_is_tract_without_onnxruntime() {
+    let line = default_backend_line(None);
+    assert!(line.contains("backend tract"), "{line}");
+    // A library path that does not exist is not "available": still tract.
+    let line = default_backend_line(Some(Path::new("/nonexistent/libonnxruntime.so")));
+    assert!(line.contains("backend tract"), "{line}");
+}
+
+#[test]
+fn default_backend_is_onnxruntime_where_available() {
+    let lib = match onnxruntime_library() {
+        Ok(lib) => lib,
+        Err(why) => {
+            eprintln!("SKIPPED default backend with ONNX Runtime: {why}");
+            return;
+        }
+    };
+    let line = default_backend_line(Some(&lib));
+    assert!(line.contains("backend onnxruntime"), "{line}");
 }
 
 #[test]
