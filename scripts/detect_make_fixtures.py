@@ -1,20 +1,23 @@
 #!/usr/bin/env python3
 """Regenerates tests/fixtures/detect/ (run with train/.venv's python).
 
-- sea_<seed>.jpg + gt.json: held-out frames of train/data.py's procedural
-  generator (seeds far from the training range) with their true boxes (COCO).
+- sim_<sequence>_<frame>.jpg + gt.json: held-out frames rendered by
+  train/run.sh (train/data/sim/heldout, seeds 100001/100002, never trained on),
+  copied byte for byte, with their swimmer / boat boxes (COCO, category 1
+  swimmer, 2 boat; jetskis count as boats like in training).
 - bad_rank.onnx: a valid model whose input has rank 3 (must be rejected).
 - bad_layout.onnx: a valid model with a (1, 7) output (unknown layout).
 - corrupt.onnx: bytes that are not a protobuf model.
 
-Usage: train/.venv/bin/python scripts/detect_make_fixtures.py
+Usage: train/run.sh (renders the held-out set), then
+       train/.venv/bin/python scripts/detect_make_fixtures.py
 """
 
 import json
+import shutil
 import sys
 from pathlib import Path
 
-import numpy as np
 import onnx
 from onnx import TensorProto, helper
 from PIL import Image
@@ -25,21 +28,35 @@ import data  # noqa: E402
 from model import CLASS_NAMES  # noqa: E402
 
 OUT = ROOT / "tests" / "fixtures" / "detect"
-SEEDS = [2_000_003, 2_000_011]
+HELDOUT = ROOT / "train" / "data" / "sim" / "heldout"
+# (sequence, frame file): held-out frames with swimmers and a boat at sizes
+# the 320 px model resolves on the whole frame.
+FRAMES = [
+    ("leave_and_return_s100002", "img1/000001.jpg"),
+    ("boats_crossing_s100002", "img1/000631.jpg"),
+]
 
 
 def frames():
     images, anns = [], []
-    for i, seed in enumerate(SEEDS, start=1):
-        img, boxes, classes = data.procedural_frame(seed)
-        name = f"sea_{seed}.jpg"
-        Image.fromarray(img).save(OUT / name, quality=92)
-        images.append({"id": i, "file_name": name, "width": img.shape[1], "height": img.shape[0]})
+    for i, (seq, frame) in enumerate(FRAMES, start=1):
+        src = HELDOUT / seq / frame
+        if not src.is_file():
+            raise SystemExit(f"{src} is missing: run train/run.sh first (it renders the held-out set)")
+        name = f"sim_{seq}_{Path(frame).stem}.jpg"
+        shutil.copyfile(src, OUT / name)
+        w, h = Image.open(src).size
+        images.append({"id": i, "file_name": name, "width": w, "height": h})
+        samples = {p.resolve(): (b, c) for p, b, c in data.load_coco_dir(HELDOUT / seq)}
+        boxes, classes = samples[src.resolve()]
         for b, c in zip(boxes, classes):
             x1, y1, x2, y2 = (float(v) for v in b)
             anns.append({"id": len(anns) + 1, "image_id": i, "category_id": int(c) + 1,
                          "bbox": [x1, y1, x2 - x1, y2 - y1], "area": (x2 - x1) * (y2 - y1), "iscrowd": 0})
     cats = [{"id": k + 1, "name": n} for k, n in enumerate(CLASS_NAMES)]
+    for old in OUT.glob("*.jpg"):
+        if old.name not in {im["file_name"] for im in images}:
+            old.unlink()
     (OUT / "gt.json").write_text(json.dumps({"images": images, "annotations": anns, "categories": cats}, indent=1))
 
 

@@ -74,27 +74,35 @@ fn shipped_models_load_with_their_metadata() {
     }
 }
 
-#[test]
-fn shipped_model_finds_the_objects_in_held_out_frames() {
-    let mut d = load(&root().join(INT8)).unwrap();
-    let mut matched = 0;
-    let mut total = 0;
-    let mut false_positives = 0;
-    for name in ["sea_2000003.jpg", "sea_2000011.jpg"] {
+/// The fixture frames: held-out mgmot-sim renders (seeds never trained on),
+/// 1280x720, see scripts/detect_make_fixtures.py.
+const FRAMES: [&str; 2] = [
+    "sim_leave_and_return_s100002_000001.jpg",
+    "sim_boats_crossing_s100002_000631.jpg",
+];
+
+/// (objects matched at IoU >= 0.5 with the right class, objects, false positives)
+/// over the fixture frames, keeping only ground truth of the given classes.
+fn match_fixtures(d: &mut Detector, classes: &[usize]) -> (usize, usize, usize) {
+    let (mut matched, mut total, mut false_positives) = (0, 0, 0);
+    for name in FRAMES {
         let frame = image::open(fixture(name)).unwrap().to_rgb8();
         let dets = d.detect(&frame).unwrap();
-        let gt = ground_truth(name);
+        let gt: Vec<_> = ground_truth(name)
+            .into_iter()
+            .filter(|(c, _)| classes.contains(c))
+            .collect();
         total += gt.len();
-        for (class, g) in &gt {
-            if dets
-                .iter()
-                .any(|x| x.class_id == *class && x.bbox.iou(g) >= 0.5)
-            {
-                matched += 1;
-            }
-        }
+        matched += gt
+            .iter()
+            .filter(|(class, g)| {
+                dets.iter()
+                    .any(|x| x.class_id == *class && x.bbox.iou(g) >= 0.5)
+            })
+            .count();
         false_positives += dets
             .iter()
+            .filter(|x| classes.contains(&x.class_id))
             .filter(|x| {
                 !gt.iter()
                     .any(|(c, g)| *c == x.class_id && x.bbox.iou(g) >= 0.5)
@@ -102,57 +110,45 @@ fn shipped_model_finds_the_objects_in_held_out_frames() {
             .count();
         for x in &dets {
             assert!(x.bbox.x_px >= 0.0 && x.bbox.x_px + x.bbox.w_px <= frame.width() as f32 + 1e-3);
+            assert!(
+                x.bbox.y_px >= 0.0 && x.bbox.y_px + x.bbox.h_px <= frame.height() as f32 + 1e-3
+            );
             assert!(x.score >= 0.25 && x.score <= 1.0);
         }
     }
-    assert!(total > 0);
-    // The provisional model (models/README.md) is weak; these bounds record
-    // what it does reach on these frames rather than an aspiration.
-    assert!(matched * 2 >= total, "matched {matched} of {total} objects");
-    assert!(
-        false_positives <= total,
-        "{false_positives} false positives for {total} objects"
-    );
+    (matched, total, false_positives)
 }
 
 #[test]
-fn tiling_keeps_full_frame_detections_and_maps_tiles_back() {
-    let path = root().join(INT8);
-    let frame = image::open(fixture("sea_2000003.jpg")).unwrap().to_rgb8();
-    // Upscale 2x so the 480x320 frame needs several 320 px tiles.
-    let big = image::imageops::resize(
-        &frame,
-        frame.width() * 2,
-        frame.height() * 2,
-        image::imageops::FilterType::Triangle,
-    );
-    let mut cfg = DetectorConfig::new(&path);
+fn shipped_model_finds_the_boats_on_whole_frames() {
+    // Letterboxed into 320 px, a 1280x720 frame shrinks the 8-20 px swimmers
+    // to 2-5 px: on whole frames only the boats are a fair check.
+    let mut d = load(&root().join(INT8)).unwrap();
+    let (matched, total, false_positives) = match_fixtures(&mut d, &[1]);
+    assert!(total > 0);
+    assert!(matched == total, "matched {matched} of {total} boats");
+    assert!(false_positives <= 1, "{false_positives} false boats");
+}
+
+#[test]
+fn shipped_model_finds_swimmers_and_boats_with_tiling() {
+    let mut cfg = DetectorConfig::new(root().join(INT8));
     cfg.tiling = Some(TilingConfig::default());
-    let mut tiled = Detector::load(cfg).unwrap();
-    let dets = tiled.detect(&big).unwrap();
-    let gt = ground_truth("sea_2000003.jpg");
-    let found = gt
-        .iter()
-        .filter(|(class, g)| {
-            let g2 = PixelBox {
-                x_px: g.x_px * 2.0,
-                y_px: g.y_px * 2.0,
-                w_px: g.w_px * 2.0,
-                h_px: g.h_px * 2.0,
-            };
-            dets.iter()
-                .any(|d| d.class_id == *class && d.bbox.iou(&g2) >= 0.5)
-        })
-        .count();
+    let mut d = Detector::load(cfg).unwrap();
+    let (matched, total, false_positives) = match_fixtures(&mut d, &[0, 1]);
+    assert!(total > 0);
+    // Bounds that record what the shipped model reaches on these frames
+    // (models/README.md has its mAP50 on the whole held-out set).
     assert!(
-        found * 2 >= gt.len(),
-        "found {found} of {} objects in {dets:?}",
-        gt.len()
+        matched * 4 >= total * 3,
+        "matched {matched} of {total} objects"
     );
-    for d in &dets {
-        assert!(d.bbox.x_px >= 0.0 && d.bbox.x_px + d.bbox.w_px <= big.width() as f32 + 1e-3);
-        assert!(d.bbox.y_px >= 0.0 && d.bbox.y_px + d.bbox.h_px <= big.height() as f32 + 1e-3);
-    }
+    // Measured: 16 false positives (tiles see wave crests and glint as
+    // swimmers at score >= 0.25) for 9 objects.
+    assert!(
+        false_positives <= 2 * total,
+        "{false_positives} false positives for {total} objects"
+    );
 }
 
 #[test]

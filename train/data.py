@@ -1,13 +1,8 @@
 """Labelled frames for training and evaluation.
 
-Two sources, both deterministic given their seeds:
-
-* ``sim``: sequences rendered by ``mgmot-sim render -s NAME --seed N -o DIR``
-  (``img1/*.png`` + ``annotations.json``, SeaDronesSee-style COCO). This is
-  the intended source.
-* ``procedural``: a stand-in generator used only while mgmot-sim cannot render
-  yet: a textured sea with small swimmer blobs and elongated boats. A model
-  trained on it is provisional and labelled so in the model card.
+Frames are sequences rendered by ``mgmot-sim render -s SCENARIO --seed N -o DIR``
+(``img1/*.jpg`` + ``annotations.json``, SeaDronesSee-style COCO), or any folder
+of COCO-style JSON files next to their images (e.g. real footage).
 
 A sample is ``(image uint8 HxWx3 RGB, boxes float32 (n, 4) x1 y1 x2 y2 in pixels,
 classes int64 (n,))``. Class ids follow ``model.CLASS_NAMES``.
@@ -16,7 +11,6 @@ classes int64 (n,))``. Class ids follow ``model.CLASS_NAMES``.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +26,6 @@ CATEGORY_MAP = {
     "boat": 1,
     "jetski": 1,
 }
-# SeaDronesSee category ids (used by mgmot-sim) when a JSON has no category names.
 
 
 # ---------------------------------------------------------------- sim frames
@@ -71,61 +64,6 @@ def load_coco_dir(root: Path):
 
 def read_image(path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"))
-
-
-# ---------------------------------------------------------- procedural frames
-def procedural_frame(seed: int, width: int = 480, height: int = 320):
-    """One synthetic sea frame with swimmers and boats; fully determined by ``seed``."""
-    rng = np.random.default_rng(seed)
-    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
-    base = np.array([20, 60, 80], np.float32) + rng.uniform(-15, 25, 3)
-    grad = (yy / height)[..., None] * rng.uniform(-20, 20, 3)
-    img = base + grad
-    # Waves: a few oriented sinusoids plus noise; sea state scales the amplitude.
-    sea_state = rng.uniform(0.2, 1.0)
-    for _ in range(4):
-        ang = rng.uniform(0, math.pi)
-        k = rng.uniform(0.05, 0.4)
-        ph = rng.uniform(0, 2 * math.pi)
-        img += (10 * sea_state * np.sin(k * (xx * math.cos(ang) + yy * math.sin(ang)) + ph))[..., None]
-    img += rng.normal(0, 4 + 6 * sea_state, (height, width, 1))
-    # Glints: bright specks that look a little like objects (hard negatives).
-    for _ in range(int(40 * sea_state)):
-        gx, gy = rng.uniform(0, width), rng.uniform(0, height)
-        r = rng.uniform(0.7, 2.0)
-        m = ((xx - gx) ** 2 + (yy - gy) ** 2) < r * r
-        img[m] = np.clip(img[m] + rng.uniform(60, 140), 0, 255)
-    boxes, classes = [], []
-    scale = rng.uniform(0.5, 1.6)  # altitude
-    for _ in range(rng.integers(0, 7)):  # swimmers: small head/shoulder blobs
-        s = rng.uniform(5, 14) * scale
-        cx, cy = rng.uniform(s, width - s), rng.uniform(s, height - s)
-        ax, ay = s * rng.uniform(0.5, 1.0), s * rng.uniform(0.5, 1.0)
-        m = ((xx - cx) / ax) ** 2 + ((yy - cy) / ay) ** 2 < 1
-        colour = rng.choice([[220, 170, 140], [90, 60, 40], [240, 120, 20], [230, 200, 40]])
-        img[m] = 0.25 * img[m] + 0.75 * np.asarray(colour, np.float32)
-        hm = ((xx - cx) / (ax * 0.45)) ** 2 + ((yy - cy + ay * 0.3) / (ay * 0.45)) ** 2 < 1
-        img[hm] = np.asarray([60, 40, 30], np.float32)
-        boxes.append((cx - ax, cy - ay, cx + ax, cy + ay))
-        classes.append(0)
-    for _ in range(rng.integers(0, 3)):  # boats: elongated rotated hulls with a wake
-        length = rng.uniform(25, 80) * scale
-        beam = length * rng.uniform(0.25, 0.4)
-        cx, cy = rng.uniform(length / 2, width - length / 2), rng.uniform(length / 2, height - length / 2)
-        th = rng.uniform(0, math.pi)
-        u = (xx - cx) * math.cos(th) + (yy - cy) * math.sin(th)
-        v = -(xx - cx) * math.sin(th) + (yy - cy) * math.cos(th)
-        wake = (u < -length / 2) & (u > -length * 1.3) & (np.abs(v) < beam * 0.5 * (1 + (-u - length / 2) / length))
-        img[wake] = 0.5 * img[wake] + 0.5 * 235
-        hull = (np.abs(u) < length / 2) & (np.abs(v) < beam / 2 * np.clip(1.3 - np.abs(u) / (length / 2) * 0.5, 0, 1))
-        colour = rng.choice([[240, 240, 240], [200, 30, 30], [250, 250, 200], [40, 40, 50]])
-        img[hull] = np.asarray(colour, np.float32)
-        ys, xs = np.nonzero(hull)
-        if len(xs):
-            boxes.append((xs.min(), ys.min(), xs.max() + 1, ys.max() + 1))
-            classes.append(1)
-    img = np.clip(img, 0, 255).astype(np.uint8)
-    return img, np.asarray(boxes, np.float32).reshape(-1, 4), np.asarray(classes, np.int64)
 
 
 # ------------------------------------------------------------ preprocessing

@@ -1,13 +1,14 @@
 """Static int8 quantisation (QDQ) of an fp32 TinyDet / YOLOv8 ONNX model.
 
-Calibration: letterboxed frames from the training split (MinMax, per-channel
-int8 weights, uint8 activations). Everything up to the heads' last
+Calibration: views of training frames as the detector sees them at run time,
+alternately a whole frame letterboxed into the input and a native-resolution
+tile (MinMax, per-channel int8 weights, uint8 activations). Everything up to the heads' last
 convolutions is quantised (Conv + ReLU fuse into one int8 convolution, Add,
 Concat, Resize, ...); the box decoding after the heads (Softplus / Sigmoid and
 the arithmetic that turns distances into boxes) stays float, so box
 coordinates keep full precision.
 
-Usage: python quantize.py --fp32 model.onnx --out model-int8.onnx --source sim --data DIR
+Usage: python quantize.py --fp32 model.onnx --out model-int8.onnx --data DIR
 """
 
 from __future__ import annotations
@@ -38,15 +39,19 @@ class FrameReader(CalibrationDataReader):
         return {self.input_name: data.to_tensor_chw(lb)[None]}
 
 
-def calibration_frames(args):
-    if args.source == "sim":
-        samples = data.load_coco_dir(Path(args.data))
-        step = max(1, len(samples) // args.count)
-        for path, _, _ in samples[::step][: args.count]:
-            yield data.read_image(path)
-    else:
-        for seed in range(args.seed_base, args.seed_base + args.count):
-            yield data.procedural_frame(seed)[0]
+def calibration_frames(args, size: int):
+    """Every k-th training frame; odd ones cropped to a size x size tile around their first box."""
+    samples = data.load_coco_dir(Path(args.data))
+    step = max(1, len(samples) // args.count)
+    for i, (path, boxes, _) in enumerate(samples[::step][: args.count]):
+        img = data.read_image(path)
+        if i % 2 and len(boxes):
+            h, w = img.shape[:2]
+            cx, cy = (boxes[0, 0] + boxes[0, 2]) / 2, (boxes[0, 1] + boxes[0, 3]) / 2
+            x0 = int(min(max(0, cx - size / 2), max(0, w - size)))
+            y0 = int(min(max(0, cy - size / 2), max(0, h - size)))
+            img = np.ascontiguousarray(img[y0 : y0 + size, x0 : x0 + size])
+        yield img
 
 
 def decode_nodes(model: onnx.ModelProto) -> list[str]:
@@ -81,10 +86,14 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--fp32", required=True)
     ap.add_argument("--out", required=True)
-    ap.add_argument("--source", choices=["sim", "procedural"], default="sim")
-    ap.add_argument("--data")
-    ap.add_argument("--seed-base", type=int, default=0)
+    ap.add_argument("--data", required=True, help="training sequences (COCO-style JSON + images)")
     ap.add_argument("--count", type=int, default=128)
+    ap.add_argument(
+        "--float-prefix",
+        action="append",
+        default=[],
+        help="also keep nodes whose name starts with this in float (repeatable), e.g. /heads.0/cls/",
+    )
     args = ap.parse_args()
     model = onnx.load(args.fp32)
     inp = model.graph.input[0]
@@ -92,11 +101,14 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         pre = str(Path(tmp) / "pre.onnx")
         quant_pre_process(args.fp32, pre)
-        exclude = decode_nodes(onnx.load(pre))
+        pre_model = onnx.load(pre)
+        exclude = decode_nodes(pre_model)
+        exclude += [n.name for n in pre_model.graph.node if any(n.name.startswith(p) for p in args.float_prefix)]
+        exclude = sorted(set(exclude))
         quantize_static(
             pre,
             args.out,
-            FrameReader(calibration_frames(args), size, inp.name),
+            FrameReader(calibration_frames(args, size), size, inp.name),
             quant_format=QuantFormat.QDQ,
             nodes_to_exclude=exclude,
             per_channel=True,

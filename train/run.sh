@@ -1,29 +1,31 @@
 #!/usr/bin/env bash
 # One command from nothing to the shipped models (see train/README.md):
 #
-#   train/run.sh                     # sim frames (needs mgmot-sim's `render`)
-#   MGMOT_TRAIN_SOURCE=procedural train/run.sh   # stand-in data, provisional model
+#   train/run.sh                       # render, train, export, quantise, evaluate
+#   MGMOT_TRAIN_INSTALL=1 train/run.sh # ... and copy the models + metrics into models/
 #
 # Environment knobs (defaults in brackets):
-#   MGMOT_TRAIN_SOURCE   sim | procedural                      [sim]
-#   MGMOT_TRAIN_MINUTES  wall-clock training budget             [45]
-#   MGMOT_TRAIN_FRAMES   minimum training frames to render      [5000]
-#   MGMOT_TRAIN_EVERY    keep every Nth rendered frame          [5]
-#   MGMOT_TRAIN_INSTALL  1 = copy models + metrics into models/ [0]
-# Seeds: training renders use seeds 1.., held-out renders 100001.. (disjoint),
-# procedural frames 0..FRAMES-1 for training and 1000000.. for held-out;
-# torch / numpy are seeded with 1 (train.py --seed).
+#   MGMOT_TRAIN_MINUTES  wall-clock training budget                 [40]
+#   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
+#   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
+#   MGMOT_TRAIN_INSTALL  1 = copy models + metrics into models/     [0]
+#   MGMOT_SIM            a prebuilt mgmot-sim binary  [built: target/release/mgmot-sim]
+#   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
+# Seeds: training renders use seeds 1, 2, ... (every scenario per seed) until
+# MGMOT_TRAIN_FRAMES frames exist; held-out renders use seeds 100001 and
+# 100002 (disjoint). Each (scenario, seed) is a variant from scenarios.py
+# (altitude, gimbal pitch, sea state, sun). torch / numpy are seeded with 1.
 set -euo pipefail
 HERE="$(cd "$(dirname "$0")" && pwd)"
 ROOT="$(cd "$HERE/.." && pwd)"
-SOURCE="${MGMOT_TRAIN_SOURCE:-sim}"
-MINUTES="${MGMOT_TRAIN_MINUTES:-45}"
+MINUTES="${MGMOT_TRAIN_MINUTES:-40}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
-EVERY="${MGMOT_TRAIN_EVERY:-5}"   # keep every Nth frame of a sequence (decorrelated frames)
-RUN="$HERE/runs/$SOURCE"
+PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
+RUN="$HERE/runs/sim"
 DATA="$HERE/data/sim"
-SCENARIOS=(calm_baseline high_altitude_tiny swimmer_group boats_crossing fast_drone gimbal_swings leave_and_return mixed_mission_soak)
-mkdir -p "$RUN"
+SCENARIOS=(calm_baseline high_altitude_tiny swimmer_group boats_crossing fast_drone gimbal_swings
+    leave_and_return mixed_mission_soak camera_desync gimbal_pitch_bias telemetry_dropout)
+mkdir -p "$RUN" "$DATA/scenarios"
 
 # 1. Python environment (pinned).
 if [[ ! -x "$HERE/.venv/bin/python" ]]; then
@@ -33,43 +35,44 @@ fi
 PY="$HERE/.venv/bin/python"
 cd "$HERE"
 
-# 2. Data.
-count_frames() { find "$1" -name '*.png' 2>/dev/null | wc -l; }
-if [[ "$SOURCE" == sim ]]; then
+# 2. Data: JPEG sequences rendered by mgmot-sim (1280x720, SeaDronesSee-style JSON).
+SIM="${MGMOT_SIM:-}"
+if [[ -z "$SIM" ]]; then
     (cd "$ROOT" && cargo build --release -p mgmot-sim)
     SIM="$ROOT/target/release/mgmot-sim"
-    "$SIM" render --help >/dev/null 2>&1 || { echo "mgmot-sim has no 'render' subcommand yet: merge main once the simulator lands" >&2; exit 2; }
-    seed=1
-    while (( $(count_frames "$DATA/train") < FRAMES )); do
-        for sc in "${SCENARIOS[@]}"; do
-            out="$DATA/train/${sc}_s${seed}"
-            [[ -d "$out" ]] || "$SIM" render -s "$sc" --seed "$seed" -o "$out" --format png --every "$EVERY"
-        done
-        seed=$((seed + 1))
-    done
-    for sc in "${SCENARIOS[@]}"; do
-        out="$DATA/heldout/${sc}_s100001"
-        [[ -d "$out" ]] || "$SIM" render -s "$sc" --seed 100001 -o "$out" --format png --every "$EVERY"
-    done
-    TRAIN_ARGS=(--source sim --data "$DATA/train")
-    CAL_ARGS=(--source sim --data "$DATA/train")
-    EVAL_ARGS=(--source sim --data "$DATA/heldout" --count 1000)
-else
-    TRAIN_ARGS=(--source procedural --frames 2000 --seed-base 0)
-    CAL_ARGS=(--source procedural --seed-base 0)
-    EVAL_ARGS=(--source procedural --seed-base 1000000 --count 300)
 fi
+count_frames() { find "$1" -name '*.jpg' 2>/dev/null | wc -l; }
+render() { # split scenario seed
+    local out="$DATA/$1/${2}_s$3"
+    [[ -f "$out/annotations.json" ]] && return 0
+    local toml="$DATA/scenarios/${2}_s$3.toml" every
+    every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --out "$toml" --frames "$PER_SEQ")"
+    rm -rf "$out"
+    "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
+}
+seed=1
+while (( $(count_frames "$DATA/train") < FRAMES )); do
+    for sc in "${SCENARIOS[@]}"; do render train "$sc" "$seed"; done
+    seed=$((seed + 1))
+done
+for sc in "${SCENARIOS[@]}"; do
+    for seed in 100001 100002; do render heldout "$sc" "$seed"; done
+done
+echo "frames: train $(count_frames "$DATA/train"), held-out $(count_frames "$DATA/heldout")"
+[[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
 # 3. Train (time-bounded), 4. export fp32, 5. quantise int8, 6. evaluate both.
-"$PY" train.py "${TRAIN_ARGS[@]}" --crop 192 --batch 8 --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
+"$PY" train.py --data "$DATA/train" --crop 192 --batch 16 --threads 1 --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
+[[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 320 --out "$RUN/mgmot-det-fp32.onnx" \
-    --description "mgmot TinyDet swimmer/boat detector, trained on $SOURCE frames"
-"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" "${CAL_ARGS[@]}" --count 128
-"$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" "${EVAL_ARGS[@]}" --json "$RUN/metrics.json"
+    --description "mgmot TinyDet swimmer/boat detector, trained on mgmot-sim frames"
+"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$DATA/train" --count 128
+"$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$DATA/heldout" --count 441 --json "$RUN/metrics.json"
 
 if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     cp "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" "$ROOT/models/"
     cp "$RUN/metrics.json" "$ROOT/models/metrics.json"
+    cp "$RUN/tinydet.log.json" "$ROOT/models/training-log.json"
     echo "installed into $ROOT/models (update models/README.md with metrics.json)"
 fi
 echo "done: $RUN"

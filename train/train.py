@@ -1,7 +1,6 @@
 """Train TinyDet on labelled frames (see data.py), time-bounded and seeded.
 
-Usage: python train.py --source sim --data DIR --out ckpt.pt [--minutes 45]
-       python train.py --source procedural --frames 3000 --out ckpt.pt
+Usage: python train.py --data DIR --out ckpt.pt [--minutes 40]
 
 Assignment is FCOS-style centre sampling per pyramid level (a ground-truth box
 goes to the levels whose size range holds its longest side; cells near its
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 import torch.nn.functional as F
+from PIL import Image
 
 import data
 from model import STRIDES, TinyDet, distances, grid_centres
@@ -36,29 +36,42 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(seed)
 
 
-def random_crop(img, boxes, classes, size, rng):
-    """Random scale jitter and a size x size crop (tiling-like view), or a full letterboxed frame."""
-    h, w = img.shape[:2]
-    if rng.random() < 0.25 or (h <= size and w <= size):
-        out, s, px, py = data.letterbox(img, size)
-        b = boxes * s + np.array([px, py, px, py], np.float32)
-        return out, b, classes
-    s = rng.uniform(0.5, 1.0) if min(h, w) * 0.5 >= size else 1.0
-    if s != 1.0:
-        from PIL import Image
+def random_view(sample, size, rng):
+    """One size x size training view of a frame: (image, boxes, classes).
 
-        img = np.asarray(Image.fromarray(img).resize((max(size, round(w * s)), max(size, round(h * s))), Image.BILINEAR))
-        sx, sy = img.shape[1] / w, img.shape[0] / h
-        boxes = boxes * np.array([sx, sy, sx, sy], np.float32)
-    h, w = img.shape[:2]
-    x0 = rng.integers(0, max(1, w - size + 1))
-    y0 = rng.integers(0, max(1, h - size + 1))
+    The frame is scaled by a log-uniform factor in [0.2, 1]: 0.25 is what a
+    1280x720 frame looks like letterboxed into the 320 px input, 1 is a
+    native-resolution tile (``mgmot detect --tile``). 70 % of the views are
+    placed so that they contain the centre of a random labelled object (most of
+    a frame is empty sea), the rest anywhere; 10 % are the whole frame
+    letterboxed into the view.
+    """
+    path, boxes, classes = sample
+    im = Image.open(path)
+    w0, h0 = im.size
+    if rng.random() < 0.1:
+        img = np.asarray(im.convert("RGB"))
+        out, s, px, py = data.letterbox(img, size)
+        return out, boxes * s + np.array([px, py, px, py], np.float32), classes.copy()
+    s = math.exp(rng.uniform(math.log(0.2), math.log(1.0)))
+    nw, nh = max(1, round(w0 * s)), max(1, round(h0 * s))
+    im.draft("RGB", (nw, nh))  # JPEG: decode at a reduced DCT scale when possible
+    img = np.asarray(im.convert("RGB").resize((nw, nh), Image.BILINEAR))
+    b = boxes * np.array([nw / w0, nh / h0, nw / w0, nh / h0], np.float32)
+    if len(b) and rng.random() < 0.7:
+        k = int(rng.integers(0, len(b)))
+        cx, cy = (b[k, 0] + b[k, 2]) / 2, (b[k, 1] + b[k, 3]) / 2
+        x0 = int(np.clip(cx - rng.uniform(0.1, 0.9) * size, 0, max(0, nw - size)))
+        y0 = int(np.clip(cy - rng.uniform(0.1, 0.9) * size, 0, max(0, nh - size)))
+    else:
+        x0 = int(rng.integers(0, max(1, nw - size + 1)))
+        y0 = int(rng.integers(0, max(1, nh - size + 1)))
     crop = np.full((size, size, 3), 114, np.uint8)
     part = img[y0 : y0 + size, x0 : x0 + size]
     crop[: part.shape[0], : part.shape[1]] = part
-    b = boxes - np.array([x0, y0, x0, y0], np.float32)
+    b = b - np.array([x0, y0, x0, y0], np.float32)
     area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    bc = np.clip(b, 0, size)
+    bc = np.clip(b, 0, [part.shape[1], part.shape[0], part.shape[1], part.shape[0]])
     area_c = (bc[:, 2] - bc[:, 0]) * (bc[:, 3] - bc[:, 1])
     keep = (area_c > 0.5 * np.maximum(area, 1e-6)) & ((bc[:, 2] - bc[:, 0]) >= 2) & ((bc[:, 3] - bc[:, 1]) >= 2)
     return crop, bc[keep], classes[keep]
@@ -146,25 +159,31 @@ def compute_loss(outs, targets, nc):
     return cls_loss / n, box_loss / n
 
 
-def load_samples(args):
-    if args.source == "sim":
-        return data.load_coco_dir(Path(args.data))
-    return [("procedural", seed) for seed in range(args.seed_base, args.seed_base + args.frames)]
+class Batches(torch.utils.data.IterableDataset):
+    """Endless training batches, built in a worker process (overlaps JPEG decoding with training).
 
+    Deterministic: one worker, its own generator seeded from ``seed``.
+    """
 
-def get_frame(sample):
-    if sample[0] == "procedural":
-        return data.procedural_frame(sample[1])
-    path, boxes, classes = sample
-    return data.read_image(path), boxes.copy(), classes.copy()
+    def __init__(self, samples, crop: int, batch: int, seed: int):
+        super().__init__()
+        self.samples, self.crop, self.batch, self.seed = samples, crop, batch, seed
+
+    def __iter__(self):
+        rng = np.random.default_rng(self.seed)
+        while True:
+            imgs, targets = [], []
+            for _ in range(self.batch):
+                img, boxes, classes = random_view(self.samples[int(rng.integers(0, len(self.samples)))], self.crop, rng)
+                img, boxes = augment(img, boxes, rng)
+                imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
+                targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
+            yield torch.stack(imgs), targets
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--source", choices=["sim", "procedural"], default="sim")
-    ap.add_argument("--data", help="directory of rendered sim frames (source=sim)")
-    ap.add_argument("--frames", type=int, default=3000, help="procedural frames (source=procedural)")
-    ap.add_argument("--seed-base", type=int, default=0)
+    ap.add_argument("--data", required=True, help="directory of rendered sim sequences")
     ap.add_argument("--out", required=True)
     ap.add_argument("--crop", type=int, default=256)
     ap.add_argument("--batch", type=int, default=16)
@@ -172,18 +191,17 @@ def main():
     ap.add_argument("--max-steps", type=int, default=100000)
     ap.add_argument("--lr", type=float, default=3e-3)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--threads", type=int, default=1, help="torch threads (the batch loader is one more process)")
     ap.add_argument("--init", help="start from this checkpoint (continue training)")
     args = ap.parse_args()
 
     seed_everything(args.seed)
     torch.set_num_threads(args.threads)
-    samples = load_samples(args)
+    samples = data.load_coco_dir(Path(args.data))
     if not samples:
-        raise SystemExit(f"no labelled frames found (source={args.source}, data={args.data})")
-    print(f"{len(samples)} training frames", flush=True)
-    # Decoded frames are cached in memory (uint8) so that each is rendered / read once.
-    cache: dict[int, tuple] = {}
+        raise SystemExit(f"no labelled frames found under {args.data}")
+    nboxes = sum(len(c) for _, _, c in samples)
+    print(f"{len(samples)} training frames, {nboxes} boxes", flush=True)
     model = TinyDet()
     if args.init:
         model.load_state_dict(torch.load(args.init, map_location="cpu")["model"])
@@ -191,7 +209,10 @@ def main():
     nparams = sum(p.numel() for p in model.parameters())
     print(f"TinyDet: {nparams} parameters", flush=True)
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=5e-4)
-    rng = np.random.default_rng(args.seed)
+    loader = torch.utils.data.DataLoader(
+        Batches(samples, args.crop, args.batch, args.seed), batch_size=None, num_workers=1, prefetch_factor=4
+    )
+    batches = iter(loader)
     budget_s = args.minutes * 60.0
     t0 = time.time()
     step = 0
@@ -207,17 +228,7 @@ def main():
         lr = max(lr, args.lr * 0.02)
         for g in opt.param_groups:
             g["lr"] = lr
-        imgs, targets = [], []
-        for _ in range(args.batch):
-            k = int(rng.integers(0, len(samples)))
-            if k not in cache:
-                cache[k] = get_frame(samples[k])
-            img, boxes, classes = cache[k]
-            img, boxes, classes = random_crop(img, boxes, classes, args.crop, rng)
-            img, boxes = augment(img, boxes, rng)
-            imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
-            targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
-        x = torch.stack(imgs)
+        x, targets = next(batches)
         outs = model(x)
         lc, lb = compute_loss(outs, targets, model.nc)
         loss = lc + 5.0 * lb

@@ -41,8 +41,10 @@ pub struct Args {
     /// An image file or a folder of images (png, jpg, bmp).
     input: PathBuf,
     /// Inference engine: tract (pure Rust) or onnxruntime (needs --ort-lib or ORT_DYLIB_PATH).
-    #[arg(long, default_value = "tract", value_parser = parse_backend)]
-    backend: BackendKind,
+    /// Default: onnxruntime (the faster, see models/README.md) when --ort-lib or
+    /// ORT_DYLIB_PATH names an existing file, else tract (needs nothing installed).
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<BackendKind>,
     /// Path of libonnxruntime.so for --backend onnxruntime (default: $ORT_DYLIB_PATH).
     #[arg(long)]
     ort_lib: Option<PathBuf>,
@@ -98,9 +100,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let images = list_images(&args.input)?;
     let mut config = DetectorConfig::new(&args.model);
     config.backend = BackendConfig {
-        kind: args.backend,
+        kind: args.backend.unwrap_or(BackendKind::Tract),
         ort_dylib_path: args.ort_lib.clone(),
     };
+    if args.backend.is_none() {
+        let library = config.backend.resolved_ort_dylib_path();
+        if library.as_deref().is_some_and(Path::is_file) {
+            config.backend.kind = BackendKind::OnnxRuntime;
+        }
+        tracing::info!(backend = %config.backend.kind, library = ?library, "no --backend given");
+    }
     config.threads = args.threads;
     config.score_threshold = args.score;
     config.nms_iou = args.nms_iou;
@@ -113,6 +122,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let mut detector = Detector::load(config)?;
     let names = detector.model().class_names.clone();
+    if !args.json {
+        println!(
+            "{}: backend {}, input {}x{}, classes {}",
+            args.model.display(),
+            detector.backend(),
+            detector.model().input_width_px,
+            detector.model().input_height_px,
+            names.join(",")
+        );
+    }
     if let Some(out) = &args.out {
         std::fs::create_dir_all(out)
             .with_context(|| format!("cannot create output folder {}", out.display()))?;
