@@ -1,34 +1,12 @@
 //! The simulator's frame stream: a Unix-domain socket on which `mgmot-sim run --frames
-//! unix:PATH` serves frames, each a 40-byte little-endian header and the pixels:
-//!
-//! | offset | size | field |
-//! |---|---|---|
-//! | 0 | 4 | magic `MGSF` |
-//! | 4 | 2 | version (1) |
-//! | 6 | 2 | header length (40) |
-//! | 8 | 8 | frame index (u64) |
-//! | 16 | 8 | capture time on the autopilot clock, µs (u64) |
-//! | 24 | 4 | width (u32) |
-//! | 28 | 4 | height (u32) |
-//! | 32 | 4 | FourCC, `RGB3` (packed RGB24) |
-//! | 36 | 4 | payload length (u32) = width * height * 3 |
-//!
-//! (The simulator's `framing` module is the writer; this is the reader. They are two ends of a
-//! wire protocol between processes, so each side has its own code, tested against the table
-//! above.)
+//! unix:PATH` serves frames in the framing of [`super::sim_framing`].
 
-use super::{CaptureTime, Frame};
+use super::sim_framing::{FrameHeader, FramingError, HEADER_LEN};
+use super::{CameraError, CaptureTime, Frame, FrameSource};
 use crate::telemetry::AutopilotTimeUs;
 use std::io::Read;
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
-
-/// Header length in bytes.
-pub const SIM_HEADER_LEN: usize = 40;
-
-/// Frames larger than this (bytes of pixels) are refused: 8K RGB is 100 MB; a bigger length is
-/// a corrupt header, and allocating it would be the bug.
-const MAX_PAYLOAD: usize = 7680 * 4320 * 3;
 
 /// What is wrong with the stream.
 #[derive(Debug, thiserror::Error)]
@@ -42,12 +20,12 @@ pub enum SimFramingError {
         source: std::io::Error,
     },
     /// The header is not a frame header this reader understands.
-    #[error("{}: bad frame header: {problem}", path.display())]
+    #[error("{}: bad frame header: {source}", path.display())]
     Header {
         /// The socket.
         path: PathBuf,
         /// What is wrong.
-        problem: String,
+        source: FramingError,
     },
 }
 
@@ -71,31 +49,28 @@ impl SimSocketSource {
         })
     }
 
-    /// Reads the next frame, reusing `buf`'s allocation for the pixels when the caller hands
-    /// one back. `Ok(None)` at a clean end of stream (the simulator finished).
-    pub fn next_frame(&mut self) -> Result<Option<Frame>, SimFramingError> {
-        let mut header = [0u8; SIM_HEADER_LEN];
-        match read_full(&mut self.stream, &mut header) {
+    /// Reads the next frame. `Ok(None)` at a clean end of stream (the simulator finished).
+    pub fn read_frame(&mut self) -> Result<Option<Frame>, SimFramingError> {
+        let io = |path: &Path, source| SimFramingError::Io {
+            path: path.to_owned(),
+            source,
+        };
+        let header = |path: &Path, source| SimFramingError::Header {
+            path: path.to_owned(),
+            source,
+        };
+        let mut bytes = [0u8; HEADER_LEN];
+        match read_full(&mut self.stream, &mut bytes) {
             Ok(true) => {}
             Ok(false) => return Ok(None),
-            Err(source) => {
-                return Err(SimFramingError::Io {
-                    path: self.path.clone(),
-                    source,
-                })
-            }
+            Err(e) => return Err(io(&self.path, e)),
         }
-        let h = decode_header(&header).map_err(|problem| SimFramingError::Header {
-            path: self.path.clone(),
-            problem,
-        })?;
-        let mut rgb = vec![0u8; h.payload_len];
+        let h = FrameHeader::decode(&bytes).map_err(|e| header(&self.path, e))?;
+        let len = h.rgb24_len().map_err(|e| header(&self.path, e))?;
+        let mut rgb = vec![0u8; len];
         self.stream
             .read_exact(&mut rgb)
-            .map_err(|source| SimFramingError::Io {
-                path: self.path.clone(),
-                source,
-            })?;
+            .map_err(|e| io(&self.path, e))?;
         Ok(Some(Frame {
             index: h.index,
             captured: CaptureTime::Autopilot(AutopilotTimeUs(h.capture_time_us)),
@@ -103,6 +78,12 @@ impl SimSocketSource {
             height_px: h.height,
             rgb,
         }))
+    }
+}
+
+impl FrameSource for SimSocketSource {
+    fn next_frame(&mut self) -> Result<Option<Frame>, CameraError> {
+        Ok(self.read_frame()?)
     }
 }
 
@@ -121,70 +102,13 @@ fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<bool> {
     Ok(true)
 }
 
-#[derive(Debug, PartialEq)]
-struct Header {
-    index: u64,
-    capture_time_us: u64,
-    width: u32,
-    height: u32,
-    payload_len: usize,
-}
-
-fn decode_header(b: &[u8; SIM_HEADER_LEN]) -> Result<Header, String> {
-    let u16_at = |o: usize| u16::from_le_bytes([b[o], b[o + 1]]);
-    let u32_at = |o: usize| u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
-    let u64_at = |o: usize| u64::from(u32_at(o)) | (u64::from(u32_at(o + 4)) << 32);
-    if &b[0..4] != b"MGSF" {
-        return Err(format!("magic {:?}, expected \"MGSF\"", &b[0..4]));
-    }
-    let (version, len) = (u16_at(4), u16_at(6));
-    if version != 1 || usize::from(len) != SIM_HEADER_LEN {
-        return Err(format!(
-            "version {version} / header length {len}, expected 1 / 40"
-        ));
-    }
-    if &b[32..36] != b"RGB3" {
-        return Err(format!("pixel format {:?}, expected \"RGB3\"", &b[32..36]));
-    }
-    let (width, height) = (u32_at(24), u32_at(28));
-    let payload_len = u32_at(36) as usize;
-    let expected = (width as usize)
-        .checked_mul(height as usize)
-        .and_then(|n| n.checked_mul(3));
-    if expected != Some(payload_len) || payload_len > MAX_PAYLOAD || payload_len == 0 {
-        return Err(format!(
-            "payload length {payload_len} does not fit {width}x{height} RGB24"
-        ));
-    }
-    Ok(Header {
-        index: u64_at(8),
-        capture_time_us: u64_at(16),
-        width,
-        height,
-        payload_len,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::io::Write;
     use std::os::unix::net::UnixListener;
 
-    fn header(index: u64, t_us: u64, w: u32, h: u32, len: u32) -> Vec<u8> {
-        let mut b = Vec::with_capacity(SIM_HEADER_LEN);
-        b.extend_from_slice(b"MGSF");
-        b.extend_from_slice(&1u16.to_le_bytes());
-        b.extend_from_slice(&40u16.to_le_bytes());
-        b.extend_from_slice(&index.to_le_bytes());
-        b.extend_from_slice(&t_us.to_le_bytes());
-        b.extend_from_slice(&w.to_le_bytes());
-        b.extend_from_slice(&h.to_le_bytes());
-        b.extend_from_slice(b"RGB3");
-        b.extend_from_slice(&len.to_le_bytes());
-        b
-    }
-
+    /// Writer and reader through the shared header code, over a real socket.
     #[test]
     fn reads_frames_then_end_of_stream() {
         let dir = tempfile::tempdir().unwrap();
@@ -193,8 +117,8 @@ mod tests {
         let server = std::thread::spawn(move || {
             let (mut s, _) = listener.accept().unwrap();
             for k in 0..3u64 {
-                s.write_all(&header(k, 1_000_000 + k * 33_333, 4, 2, 24))
-                    .unwrap();
+                let h = FrameHeader::rgb24(k, 1_000_000 + k * 33_333, 4, 2);
+                s.write_all(&h.encode()).unwrap();
                 s.write_all(&[k as u8; 24]).unwrap();
             }
         });
@@ -214,16 +138,32 @@ mod tests {
     }
 
     #[test]
-    fn bad_headers_are_named() {
-        let mut h: [u8; 40] = header(0, 0, 4, 2, 24).try_into().unwrap();
-        assert!(decode_header(&h).is_ok());
-        h[36] = 25;
-        assert!(decode_header(&h).unwrap_err().contains("payload length"));
-        let mut m: [u8; 40] = header(0, 0, 4, 2, 24).try_into().unwrap();
-        m[0] = b'X';
-        assert!(decode_header(&m).unwrap_err().contains("magic"));
-        let huge: [u8; 40] = header(0, 0, u32::MAX, u32::MAX, 0).try_into().unwrap();
-        assert!(decode_header(&huge).is_err());
+    fn bad_header_and_cut_payload_are_errors_naming_the_socket() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.sock");
+        let listener = UnixListener::bind(&path).unwrap();
+        let server = std::thread::spawn(move || {
+            let (mut s, _) = listener.accept().unwrap();
+            let mut h = FrameHeader::rgb24(0, 0, 4, 2);
+            h.payload_len = 25;
+            s.write_all(&h.encode()).unwrap();
+            let (mut s, _) = listener.accept().unwrap();
+            s.write_all(&FrameHeader::rgb24(0, 0, 4, 2).encode())
+                .unwrap();
+            s.write_all(&[0; 10]).unwrap();
+        });
+        let e = SimSocketSource::connect(&path)
+            .unwrap()
+            .next_frame()
+            .unwrap_err();
+        assert!(e.to_string().contains("f.sock"), "{e}");
+        assert!(e.to_string().contains("payload length 25"), "{e}");
+        let e = SimSocketSource::connect(&path)
+            .unwrap()
+            .next_frame()
+            .unwrap_err();
+        server.join().unwrap();
+        assert!(matches!(e, CameraError::Sim(SimFramingError::Io { .. })));
     }
 
     #[test]

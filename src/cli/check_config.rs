@@ -21,12 +21,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             width_px,
             height_px,
             fps,
+            ..
         } => format!(
             "v4l2 {} {pixel_format} {width_px}x{height_px} @ {fps} fps",
             device.display()
         ),
-        FramesConfig::Sim { socket } => format!("simulator socket {}", socket.display()),
-        FramesConfig::Images { directory, fps } => {
+        FramesConfig::Sim { socket, .. } => format!("simulator socket {}", socket.display()),
+        FramesConfig::Images { directory, fps, .. } => {
             format!("images in {} @ {fps} fps", directory.display())
         }
     };

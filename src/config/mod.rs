@@ -183,19 +183,58 @@ pub enum FramesConfig {
         height_px: u32,
         /// Frames per second asked of the device.
         fps: u32,
+        /// Kernel buffers in the mmap ring (2..=32): more absorb jitter, fewer keep latency
+        /// and memory low.
+        #[serde(default = "default_v4l2_buffers")]
+        buffers: u32,
+        /// No frame for this long (ms, 1..=60000) means the camera is lost: close it and
+        /// reconnect.
+        #[serde(default = "default_frame_timeout_ms")]
+        frame_timeout_ms: u64,
+        /// First reconnect delay after the camera is lost (ms); doubles per failed attempt.
+        #[serde(default = "default_reconnect_initial_ms")]
+        reconnect_initial_ms: u64,
+        /// Cap of the reconnect delay (ms).
+        #[serde(default = "default_reconnect_max_ms")]
+        reconnect_max_ms: u64,
     },
     /// The simulator's Unix-socket frame stream (`mgmot-sim run --frames unix:PATH`).
     Sim {
         /// The socket path.
         socket: PathBuf,
+        /// First reconnect delay when the socket is absent or the stream breaks (ms).
+        #[serde(default = "default_reconnect_initial_ms")]
+        reconnect_initial_ms: u64,
+        /// Cap of the reconnect delay (ms).
+        #[serde(default = "default_reconnect_max_ms")]
+        reconnect_max_ms: u64,
     },
-    /// Image files of a directory, in name order.
+    /// Image files (`.jpg`, `.jpeg`, `.png`) of a directory, in name order.
     Images {
         /// The directory.
         directory: PathBuf,
-        /// Frame rate used to time the images.
+        /// Frame rate used to time the images (frame k is shown k / fps after the first).
         fps: f64,
+        /// Start again after the last image instead of ending the run.
+        #[serde(rename = "loop", default)]
+        looping: bool,
     },
+}
+
+fn default_v4l2_buffers() -> u32 {
+    4
+}
+
+fn default_frame_timeout_ms() -> u64 {
+    2000
+}
+
+fn default_reconnect_initial_ms() -> u64 {
+    1000
+}
+
+fn default_reconnect_max_ms() -> u64 {
+    5000
 }
 
 /// The camera's optics.
@@ -370,19 +409,31 @@ impl Config {
                 "must be in -90..=90".into(),
             );
         }
+        let reconnect = |bad: &mut dyn FnMut(&str, String), initial_ms: u64, max_ms: u64| {
+            if initial_ms == 0 {
+                bad("frames.reconnect_initial_ms", "must be > 0".into());
+            }
+            if max_ms < initial_ms {
+                bad(
+                    "frames.reconnect_max_ms",
+                    format!("must be >= reconnect_initial_ms ({initial_ms})"),
+                );
+            }
+        };
         match &self.frames {
             FramesConfig::V4l2 {
                 pixel_format,
                 width_px,
                 height_px,
                 fps,
+                buffers,
+                frame_timeout_ms,
+                reconnect_initial_ms,
+                reconnect_max_ms,
                 ..
             } => {
-                if !["MJPG", "YUYV", "NV12"].contains(&pixel_format.as_str()) {
-                    bad(
-                        "frames.pixel_format",
-                        format!("`{pixel_format}` is not one of MJPG, YUYV, NV12"),
-                    );
+                if let Err(e) = pixel_format.parse::<crate::camera::PixelFormat>() {
+                    bad("frames.pixel_format", e);
                 }
                 if *width_px == 0 || *height_px == 0 {
                     bad("frames.width_px", "width and height must be > 0".into());
@@ -390,11 +441,22 @@ impl Config {
                 if *fps == 0 {
                     bad("frames.fps", "must be > 0".into());
                 }
+                if !(2..=32).contains(buffers) {
+                    bad("frames.buffers", "must be within 2..=32".into());
+                }
+                if !(1..=60_000).contains(frame_timeout_ms) {
+                    bad("frames.frame_timeout_ms", "must be within 1..=60000".into());
+                }
+                reconnect(&mut bad, *reconnect_initial_ms, *reconnect_max_ms);
             }
-            FramesConfig::Sim { .. } => {}
+            FramesConfig::Sim {
+                reconnect_initial_ms,
+                reconnect_max_ms,
+                ..
+            } => reconnect(&mut bad, *reconnect_initial_ms, *reconnect_max_ms),
             FramesConfig::Images { fps, .. } => {
-                if !positive(*fps) {
-                    bad("frames.fps", "must be > 0".into());
+                if !(positive(*fps) && *fps <= 1000.0) {
+                    bad("frames.fps", "must be within (0, 1000]".into());
                 }
             }
         }
@@ -542,6 +604,70 @@ detections = "dets.json"
                 "outputs.track_rate_hz"
             ]
         );
+    }
+
+    #[test]
+    fn frame_sources_parse_with_defaults_and_name_bad_keys() {
+        let images = MINIMAL.replace(
+            "source = \"sim\"\nsocket = \"/tmp/mgmot-sim.sock\"",
+            "source = \"images\"\ndirectory = \"/data/img1\"\nfps = 10.0\nloop = true",
+        );
+        let c = Config::parse(&images).unwrap();
+        c.validate().unwrap();
+        assert_eq!(
+            c.frames,
+            FramesConfig::Images {
+                directory: "/data/img1".into(),
+                fps: 10.0,
+                looping: true
+            }
+        );
+        let v4l2 = MINIMAL.replace(
+            "source = \"sim\"\nsocket = \"/tmp/mgmot-sim.sock\"",
+            "source = \"v4l2\"\ndevice = \"/dev/video0\"\npixel_format = \"NV12\"\n\
+             width_px = 1280\nheight_px = 720\nfps = 30",
+        );
+        let c = Config::parse(&v4l2).unwrap();
+        c.validate().unwrap();
+        let FramesConfig::V4l2 {
+            buffers,
+            frame_timeout_ms,
+            reconnect_initial_ms,
+            reconnect_max_ms,
+            ..
+        } = c.frames
+        else {
+            panic!("{:?}", c.frames)
+        };
+        assert_eq!(
+            (
+                buffers,
+                frame_timeout_ms,
+                reconnect_initial_ms,
+                reconnect_max_ms
+            ),
+            (4, 2000, 1000, 5000)
+        );
+        let bad = v4l2
+            .replace("NV12", "RGB3")
+            .replace("fps = 30", "fps = 30\nbuffers = 1\nreconnect_max_ms = 10");
+        let keys: Vec<String> = Config::parse(&bad)
+            .unwrap()
+            .validate()
+            .unwrap_err()
+            .into_iter()
+            .map(|p| p.key)
+            .collect();
+        assert_eq!(
+            keys,
+            [
+                "frames.pixel_format",
+                "frames.buffers",
+                "frames.reconnect_max_ms"
+            ]
+        );
+        let e = Config::parse(&images.replace("loop = true", "looping = true")).unwrap_err();
+        assert!(e.contains("looping"), "{e}");
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! Status: frame source = the simulator's socket only; detector = the replay stand-in; no
 //! operator-selected tracking (CAMERA_TRACKING_*) and no latency histograms yet.
 
+mod capture;
 mod detector;
 mod run;
 mod shutdown;

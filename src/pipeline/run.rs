@@ -2,9 +2,9 @@
 //! (detector -> pose -> geolocation -> tracker) and the track outputs, stopped by one
 //! [`Shutdown`].
 
-use super::{newest_slot, Detector, ReplayDetector, Shutdown, SlotReader, SlotWriter, Taken};
-use crate::camera::{CaptureTime, Frame, SimSocketSource};
-use crate::config::{Config, DetectorConfig, FramesConfig};
+use super::{newest_slot, Detector, ReplayDetector, Shutdown, SlotReader, Taken};
+use crate::camera::{CameraStatus, CaptureTime, Frame};
+use crate::config::{Config, DetectorConfig};
 use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator};
 use crate::mavlink::{
     self as link, dialect::MavMessage, Incoming, Severity, TrackGeo, TrackReport,
@@ -23,9 +23,6 @@ use tokio::sync::mpsc;
 /// link cannot keep up, messages are dropped and counted rather than stalling inference.
 const OUT_QUEUE: usize = 1024;
 
-/// How long the capture thread waits before reconnecting to a frame source, at most.
-const MAX_RECONNECT_BACKOFF: Duration = Duration::from_secs(5);
-
 /// Why the runtime stopped with an error.
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
@@ -37,6 +34,9 @@ pub enum PipelineError {
         /// The error.
         source: std::io::Error,
     },
+    /// The frame source cannot be used (an image directory that is missing or empty).
+    #[error(transparent)]
+    Frames(#[from] crate::camera::CameraError),
     /// The detector could not be set up.
     #[error(transparent)]
     Detector(#[from] super::DetectorError),
@@ -78,13 +78,14 @@ struct Telemetry {
     last_position_at: Option<CompanionTimeUs>,
 }
 
-/// The companion's monotonic clock, µs since the runtime started.
+/// The companion's monotonic clock: `CLOCK_MONOTONIC`, the clock of V4L2 buffer timestamps,
+/// so frames and telemetry arrival times compare directly.
 #[derive(Debug, Clone, Copy)]
-struct Monotonic(Instant);
+struct Monotonic;
 
 impl Monotonic {
     fn now(&self) -> CompanionTimeUs {
-        CompanionTimeUs(self.0.elapsed().as_micros() as u64)
+        CompanionTimeUs::now()
     }
 }
 
@@ -105,7 +106,7 @@ impl Outbox {
 
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
 pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
-    let clock = Monotonic(Instant::now());
+    let clock = Monotonic;
     let address = config.mavlink.connection.clone();
     let mut conn = mavlink_core::connect_async::<MavMessage>(&address)
         .await
@@ -301,22 +302,19 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     let (writer, reader) = newest_slot::<Frame>();
     let captured = Arc::new(AtomicU64::new(0));
     let capture = {
-        let shutdown = shutdown.clone();
-        let captured = captured.clone();
-        let frames = config.frames.clone();
         let outbox = outbox.clone();
-        match frames {
-            FramesConfig::Sim { socket } => std::thread::Builder::new()
-                .name("capture".into())
-                .spawn(move || capture_sim(&socket, writer, &shutdown, &captured, &outbox))
-                .map_err(|_| PipelineError::Panicked("capture"))?,
-            FramesConfig::Images { .. } => {
-                return Err(PipelineError::Unsupported("frames.source = \"images\""))
-            }
-            FramesConfig::V4l2 { .. } => {
-                return Err(PipelineError::Unsupported("frames.source = \"v4l2\""))
-            }
-        }
+        super::capture::start(
+            &config.frames,
+            writer,
+            shutdown.clone(),
+            captured.clone(),
+            move |status| {
+                outbox.send(match status {
+                    CameraStatus::Lost => link::statustext(Severity::Warning, "mgmot: camera lost"),
+                    CameraStatus::Back => link::statustext(Severity::Info, "mgmot: camera back"),
+                })
+            },
+        )?
     };
     let inference = {
         let shutdown = shutdown.clone();
@@ -348,61 +346,6 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     let _ = tokio::time::timeout(Duration::from_secs(2), sender).await;
     tracing::info!(?stats, "pipeline stopped");
     Ok(stats)
-}
-
-/// The capture loop for the simulator's socket: (re)connects with backoff until shutdown;
-/// ends when the simulator closes the stream after its last frame.
-fn capture_sim(
-    socket: &std::path::Path,
-    writer: SlotWriter<Frame>,
-    shutdown: &Shutdown,
-    captured: &AtomicU64,
-    outbox: &Outbox,
-) {
-    let mut backoff = Duration::from_millis(50);
-    let mut reported_lost = false;
-    while !shutdown.is_shutdown() {
-        let mut source = match SimSocketSource::connect(socket) {
-            Ok(s) => s,
-            Err(e) => {
-                if !reported_lost {
-                    tracing::warn!(error = %e, "camera not available; retrying");
-                    outbox.send(link::statustext(Severity::Warning, "mgmot: camera lost"));
-                    reported_lost = true;
-                }
-                std::thread::sleep(backoff);
-                backoff = (backoff * 2).min(MAX_RECONNECT_BACKOFF);
-                continue;
-            }
-        };
-        if reported_lost {
-            outbox.send(link::statustext(Severity::Info, "mgmot: camera back"));
-        }
-        backoff = Duration::from_millis(50);
-        loop {
-            if shutdown.is_shutdown() {
-                return;
-            }
-            match source.next_frame() {
-                Ok(Some(frame)) => {
-                    captured.fetch_add(1, Ordering::Relaxed);
-                    if !writer.put(frame) {
-                        return;
-                    }
-                }
-                Ok(None) => {
-                    tracing::info!("frame source ended");
-                    return;
-                }
-                Err(e) => {
-                    tracing::warn!(error = %e, "camera lost; reconnecting");
-                    outbox.send(link::statustext(Severity::Warning, "mgmot: camera lost"));
-                    reported_lost = true;
-                    break;
-                }
-            }
-        }
-    }
 }
 
 /// The inference loop: newest frame -> detections -> pose -> world observations -> tracker ->

@@ -19,6 +19,30 @@ pub use pose::{
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct CompanionTimeUs(pub u64);
 
+impl CompanionTimeUs {
+    /// Now on `CLOCK_MONOTONIC`, the clock V4L2 stamps its buffers with (the one clock read in
+    /// this otherwise pure module, so every companion time in the runtime is on it).
+    pub fn now() -> Self {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC exists on every Linux,
+        // so the call cannot fail (it would leave `ts` at zero if it did).
+        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+        // time_t and c_long are 32-bit on some targets.
+        #[allow(clippy::unnecessary_cast)]
+        Self::from_timespec(ts.tv_sec as i64, ts.tv_nsec as i64 / 1000)
+    }
+
+    /// From a `(seconds, microseconds)` pair such as a V4L2 buffer's `timeval`; negative
+    /// parts (never produced by a monotonic clock) clamp to zero.
+    pub fn from_timespec(sec: i64, usec: i64) -> Self {
+        let us = sec.saturating_mul(1_000_000).saturating_add(usec);
+        Self(u64::try_from(us).unwrap_or(0))
+    }
+}
+
 /// A time on the autopilot's clock (time since its boot, as in `time_boot_ms`), microseconds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct AutopilotTimeUs(pub u64);

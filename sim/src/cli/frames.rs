@@ -2,7 +2,7 @@
 //! [`mgmot_sim::framing`], or a v4l2loopback output device (cargo feature `v4l2`).
 
 use anyhow::Context;
-use mgmot_sim::framing::{FrameHeader, FOURCC_RGB3};
+use mgmot_sim::framing::FrameHeader;
 use std::io::{ErrorKind, Write};
 use std::os::unix::fs::FileTypeExt;
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -164,17 +164,5 @@ impl UnixServer {
 impl Drop for UnixServer {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
-    }
-}
-
-/// The header of a frame captured at autopilot time `stamp_us`.
-pub fn header(index: u64, stamp_us: u64, width: u32, height: u32) -> FrameHeader {
-    FrameHeader {
-        index,
-        capture_time_us: stamp_us,
-        width,
-        height,
-        fourcc: FOURCC_RGB3,
-        payload_len: width * height * 3,
     }
 }

@@ -1,11 +1,12 @@
 //! `mgmot-sim run`: the simulated autopilot and camera, in real time or in lockstep with the
 //! frame consumer.
 
-use super::frames::{header, FrameSink};
+use super::frames::FrameSink;
 use super::link::{Link, SimClock};
 use super::render::TruthWriter;
 use super::ScenarioArgs;
 use anyhow::Context;
+use mgmot_sim::framing::FrameHeader;
 use mgmot_sim::monitor::{MonitorSummary, TrackMonitor};
 use mgmot_sim::render::Renderer;
 use mgmot_sim::telemetry::{Autopilot, Scheduler};
@@ -140,7 +141,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 // In real time nobody waits for a late consumer: render only when one listens.
                 if lockstep || sink.ready()? {
                     renderer.render(&world, &optics, t_cap, &mut rgb, true);
-                    let hdr = header(k, world.frame_stamp_us(t_cap), w, h);
+                    let hdr = FrameHeader::rgb24(k, world.frame_stamp_us(t_cap), w, h);
                     if sink.send(&hdr, &rgb, lockstep, wait_for)? {
                         frames_sent += 1;
                     } else {
