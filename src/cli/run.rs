@@ -14,6 +14,10 @@ pub struct Args {
     /// check-config`).
     #[arg(long)]
     config: PathBuf,
+    /// At exit, write the run's counters and per-stage latency percentiles (µs) as JSON to
+    /// this file (for benchmarks; scripts/bench_runtime.sh reads it).
+    #[arg(long)]
+    stats_json: Option<PathBuf>,
 }
 
 /// Runs the subcommand.
@@ -39,13 +43,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let stats = pipeline::run(config, shutdown).await?;
         signals.abort();
         eprintln!(
-            "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} track messages",
+            "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} detector errors, {} track messages",
             stats.frames_captured,
             stats.frames_processed,
             stats.frames_without_pose,
             stats.frames_dropped,
+            stats.detector_errors,
             stats.track_messages
         );
+        if let Some(path) = &args.stats_json {
+            let json = serde_json::to_string_pretty(&stats).context("serialising the stats")?;
+            std::fs::write(path, json + "\n")
+                .with_context(|| format!("writing the stats to {}", path.display()))?;
+        }
         Ok(())
     })
 }

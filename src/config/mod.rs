@@ -4,6 +4,7 @@
 //! line and the key), then [`Config::validate`], whose errors name the dotted key and the
 //! problem.
 
+use crate::detect::BackendKind;
 use crate::geo::PoseNoise;
 use crate::track::TrackerParams;
 use serde::{Deserialize, Serialize};
@@ -256,8 +257,11 @@ impl Default for CameraConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum DetectorConfig {
+    /// The ONNX detector (`mgmot::detect`) on every frame: what flies.
+    Onnx(OnnxDetectorConfig),
     /// Replays detections from a COCO results file keyed by frame (the simulator's
-    /// `mgmot-sim detections` output): stands in for the ONNX detector on the bench.
+    /// `mgmot-sim detections` output), not looking at the pixels: for bench runs that
+    /// measure the rest of the pipeline, or feed the tracker the simulator's detector model.
     Replay {
         /// COCO results JSON (`[{image_id, category_id, bbox, score}]`).
         detections: PathBuf,
@@ -265,6 +269,59 @@ pub enum DetectorConfig {
         #[serde(default = "one_u64")]
         first_image_id: u64,
     },
+}
+
+/// The ONNX detector's settings (`[detector]` with `kind = "onnx"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OnnxDetectorConfig {
+    /// The model file: `models/mgmot-det-int8.onnx` (fastest on onnxruntime),
+    /// `models/mgmot-det-fp32.onnx` (fastest on tract), or a YOLOv8 / YOLO11 export.
+    pub model: PathBuf,
+    /// Inference engine: `tract` (pure Rust, nothing to install) or `onnxruntime`.
+    #[serde(default = "default_backend")]
+    pub backend: BackendKind,
+    /// `libonnxruntime.so` for the onnxruntime backend; absent: `$ORT_DYLIB_PATH`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ort_library: Option<PathBuf>,
+    /// Intra-op threads of the model run (onnxruntime; tract runs on one).
+    #[serde(default = "default_detector_threads")]
+    pub threads: usize,
+    /// Candidates scoring below this are dropped.
+    #[serde(default = "default_score_threshold")]
+    pub score_threshold: f32,
+    /// IoU above which the class-aware NMS drops the lower-scoring box.
+    #[serde(default = "default_nms_iou")]
+    pub nms_iou: f32,
+    /// IoU above which the paper's larger-box-priority suppression drops the smaller box
+    /// (class-agnostic); 1 turns it off.
+    #[serde(default = "default_larger_box_iou")]
+    pub larger_box_iou: f32,
+    /// At most this many detections per frame.
+    #[serde(default = "default_max_detections")]
+    pub max_detections: usize,
+    /// Class names overriding the model's metadata, in the model's class order (class
+    /// index `i` becomes track class id `i + 1`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class_names: Option<Vec<String>>,
+}
+
+impl OnnxDetectorConfig {
+    /// The settings of `mgmot::detect`.
+    pub fn settings(&self) -> crate::detect::DetectorConfig {
+        let mut c = crate::detect::DetectorConfig::new(&self.model);
+        c.backend = crate::detect::BackendConfig {
+            kind: self.backend,
+            ort_dylib_path: self.ort_library.clone(),
+        };
+        c.threads = self.threads;
+        c.score_threshold = self.score_threshold;
+        c.nms_iou = self.nms_iou;
+        c.larger_box_iou = (self.larger_box_iou < 1.0).then_some(self.larger_box_iou);
+        c.max_detections = self.max_detections;
+        c.class_names = self.class_names.clone();
+        c
+    }
 }
 
 /// Geolocation.
@@ -322,6 +379,24 @@ fn onboard_computer() -> u8 {
 }
 fn default_stream_rate_hz() -> f32 {
     50.0
+}
+fn default_backend() -> BackendKind {
+    BackendKind::Tract
+}
+fn default_detector_threads() -> usize {
+    2
+}
+fn default_score_threshold() -> f32 {
+    0.25
+}
+fn default_nms_iou() -> f32 {
+    0.5
+}
+fn default_larger_box_iou() -> f32 {
+    0.7
+}
+fn default_max_detections() -> usize {
+    300
 }
 
 impl Config {
@@ -460,6 +535,49 @@ impl Config {
                 }
             }
         }
+        if let DetectorConfig::Onnx(OnnxDetectorConfig {
+            model,
+            threads,
+            score_threshold,
+            nms_iou,
+            larger_box_iou,
+            max_detections,
+            class_names,
+            ..
+        }) = &self.detector
+        {
+            if model.as_os_str().is_empty() {
+                bad("detector.model", "must name the ONNX model file".into());
+            }
+            if *threads == 0 {
+                bad("detector.threads", "must be >= 1".into());
+            }
+            for (key, v) in [
+                ("detector.score_threshold", *score_threshold),
+                ("detector.nms_iou", *nms_iou),
+            ] {
+                if !(0.0..=1.0).contains(&v) {
+                    bad(key, format!("must be in [0, 1], got {v}"));
+                }
+            }
+            if !(*larger_box_iou > 0.0 && *larger_box_iou <= 1.0) {
+                bad(
+                    "detector.larger_box_iou",
+                    format!("must be in (0, 1] (1 turns it off), got {larger_box_iou}"),
+                );
+            }
+            if *max_detections == 0 {
+                bad("detector.max_detections", "must be >= 1".into());
+            }
+            if let Some(names) = class_names {
+                if names.is_empty() || names.iter().any(|n| n.trim().is_empty()) {
+                    bad(
+                        "detector.class_names",
+                        "must list one non-empty name per model class".into(),
+                    );
+                }
+            }
+        }
         if !(self.camera.hfov_deg.is_finite()
             && self.camera.hfov_deg > 0.0
             && self.camera.hfov_deg < 180.0)
@@ -517,6 +635,19 @@ kind = "replay"
 detections = "dets.json"
 "#;
 
+    const ONNX: &str = r#"
+[mavlink]
+connection = "udpin:0.0.0.0:14550"
+[frames]
+source = "sim"
+socket = "/tmp/mgmot-sim.sock"
+[detector]
+kind = "onnx"
+model = "models/mgmot-det-int8.onnx"
+ort_library = "/opt/onnxruntime/libonnxruntime.so"
+class_names = ["swimmer", "boat"]
+"#;
+
     #[test]
     fn example_is_valid() {
         let c = Config::parse(EXAMPLE).unwrap();
@@ -527,7 +658,12 @@ detections = "dets.json"
     /// example documents all of them.
     #[test]
     fn example_documents_every_key() {
-        let mut c = Config::parse(MINIMAL).unwrap();
+        example_documents_every_key_of(MINIMAL);
+        example_documents_every_key_of(ONNX);
+    }
+
+    fn example_documents_every_key_of(config: &str) {
+        let mut c = Config::parse(config).unwrap();
         c.mavlink.signing = Some(SigningConfig {
             key_hex: "00".repeat(32),
             link_id: 0,
@@ -668,6 +804,76 @@ detections = "dets.json"
         );
         let e = Config::parse(&images.replace("loop = true", "looping = true")).unwrap_err();
         assert!(e.contains("looping"), "{e}");
+    }
+
+    #[test]
+    fn onnx_detector_defaults_and_settings() {
+        let c = Config::parse(ONNX).unwrap();
+        c.validate().unwrap();
+        let d = onnx_settings(&c);
+        assert_eq!(d.model_path, Path::new("models/mgmot-det-int8.onnx"));
+        assert_eq!(d.backend.kind, BackendKind::Tract);
+        assert_eq!(
+            d.backend.ort_dylib_path.as_deref(),
+            Some(Path::new("/opt/onnxruntime/libonnxruntime.so"))
+        );
+        assert_eq!(d.threads, 2);
+        assert_eq!(d.score_threshold, 0.25);
+        assert_eq!(d.larger_box_iou, Some(0.7));
+        assert_eq!(d.class_names.as_deref().map(<[String]>::len), Some(2));
+        let off = Config::parse(&ONNX.replace(
+            "kind = \"onnx\"",
+            "kind = \"onnx\"\nbackend = \"onnxruntime\"\nlarger_box_iou = 1.0",
+        ))
+        .unwrap();
+        let d = onnx_settings(&off);
+        assert_eq!(d.backend.kind, BackendKind::OnnxRuntime);
+        assert_eq!(d.larger_box_iou, None);
+    }
+
+    fn onnx_settings(c: &Config) -> crate::detect::DetectorConfig {
+        match &c.detector {
+            DetectorConfig::Onnx(o) => o.settings(),
+            other => panic!("not the ONNX detector: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn onnx_detector_problems_name_their_keys() {
+        let text = ONNX
+            .replace(
+                "kind = \"onnx\"",
+                "kind = \"onnx\"\nthreads = 0\nscore_threshold = 1.5\nnms_iou = -0.1\n\
+             larger_box_iou = 0.0\nmax_detections = 0",
+            )
+            .replace("[\"swimmer\", \"boat\"]", "[\"swimmer\", \" \"]");
+        let keys: Vec<String> = Config::parse(&text)
+            .unwrap()
+            .validate()
+            .unwrap_err()
+            .into_iter()
+            .map(|p| p.key)
+            .collect();
+        assert_eq!(
+            keys,
+            [
+                "detector.threads",
+                "detector.score_threshold",
+                "detector.nms_iou",
+                "detector.larger_box_iou",
+                "detector.max_detections",
+                "detector.class_names"
+            ]
+        );
+        let e =
+            Config::parse(&ONNX.replace("kind = \"onnx\"", "kind = \"onnx\"\nbackend = \"cuda\""))
+                .unwrap_err();
+        // The detector table is parsed as a whole (internally tagged): the error points at the
+        // `[detector]` line and names the bad value and the accepted ones.
+        assert!(
+            e.contains("cuda") && e.contains("[detector]") && e.contains("onnxruntime"),
+            "{e}"
+        );
     }
 
     #[test]

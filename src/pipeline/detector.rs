@@ -1,9 +1,12 @@
-//! The detector seen by the pipeline: a trait the ONNX detector (`mgmot::detect`, not merged
-//! yet) will implement, and a stand-in that replays the simulator's detection output.
+//! The detector seen by the pipeline: the [`Detector`] trait, the ONNX model
+//! ([`OnnxDetector`], through `mgmot::detect`) that flies, and [`ReplayDetector`], which replays
+//! the simulator's detection output for bench runs that should not spend CPU on inference.
 
 use crate::camera::Frame;
+use crate::detect::{self, DetectError, DetectTimings};
 use crate::formats::coco;
 use crate::track::{BBox, Detection};
+use image::RgbImage;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -13,6 +16,9 @@ pub enum DetectorError {
     /// The detector could not be set up (model or file missing or invalid).
     #[error("detector set-up: {0}")]
     Setup(String),
+    /// The ONNX model could not be loaded (the message names the model file).
+    #[error("detector set-up: {0}")]
+    Model(#[source] DetectError),
     /// One frame failed; the next may work.
     #[error("detection failed on frame {frame}: {message}")]
     Frame {
@@ -25,13 +31,84 @@ pub enum DetectorError {
 
 /// Finds objects in a frame. Runs on the inference thread (synchronous, may block).
 pub trait Detector: Send {
-    /// Detections of one frame, in its pixel coordinates, without world positions.
-    fn detect(&mut self, frame: &Frame) -> Result<Vec<Detection>, DetectorError>;
+    /// Detections of one frame, in its pixel coordinates, without world positions. The frame
+    /// is taken by value: the pixels are handed to the model without a copy.
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError>;
+
+    /// Where the time of the last successful [`Detector::detect`] went, for detectors that
+    /// measure it (the latency histograms split the model run from the rest).
+    fn last_timings(&self) -> Option<DetectTimings> {
+        None
+    }
+}
+
+/// The ONNX detector of `mgmot::detect` on the pipeline's frames. Class index `i` of the model
+/// becomes track class id `i + 1`, as in `mgmot detect`'s COCO output: for the shipped model
+/// (and any model whose classes follow SeaDronesSee's order) 1 swimmer, 2 boat, the ids the
+/// tracker's per-class thresholds are keyed by.
+#[derive(Debug)]
+pub struct OnnxDetector {
+    inner: detect::Detector,
+    last: Option<DetectTimings>,
+}
+
+impl OnnxDetector {
+    /// Loads the model (and the backend, once per process) and runs one warm-up inference.
+    pub fn load(config: detect::DetectorConfig) -> Result<Self, DetectorError> {
+        let inner = detect::Detector::load(config).map_err(DetectorError::Model)?;
+        Ok(Self { inner, last: None })
+    }
+
+    /// The loaded model's interface (input size, class names).
+    pub fn model(&self) -> &detect::ModelInfo {
+        self.inner.model()
+    }
+}
+
+impl Detector for OnnxDetector {
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError> {
+        let index = frame.index;
+        let failed = |message: String| DetectorError::Frame {
+            frame: index,
+            message,
+        };
+        let (w, h, len) = (frame.width_px, frame.height_px, frame.rgb.len());
+        let image = RgbImage::from_raw(w, h, frame.rgb).ok_or_else(|| {
+            failed(format!(
+                "{len} bytes of pixels do not make a {w}x{h} RGB24 image"
+            ))
+        })?;
+        self.last = None;
+        let (found, timings) = self
+            .inner
+            .detect_timed(&image)
+            .map_err(|e| failed(e.to_string()))?;
+        self.last = Some(timings);
+        Ok(found
+            .into_iter()
+            .map(|d| Detection {
+                bbox: BBox {
+                    x: f64::from(d.bbox.x_px),
+                    y: f64::from(d.bbox.y_px),
+                    w: f64::from(d.bbox.w_px),
+                    h: f64::from(d.bbox.h_px),
+                },
+                score: d.score,
+                class_id: u32::try_from(d.class_id).map_or(u32::MAX, |c| c.saturating_add(1)),
+                world: None,
+            })
+            .collect())
+    }
+
+    fn last_timings(&self) -> Option<DetectTimings> {
+        self.last
+    }
 }
 
 /// Replays a COCO results file (`mgmot-sim detections --out X.json`) by frame index: frame `k`
-/// gets the detections of image id `first_image_id + k`. Stands in for the ONNX detector on
-/// the bench until it lands; the pixels are not looked at.
+/// gets the detections of image id `first_image_id + k`; the pixels are not looked at. For the
+/// bench: it measures the rest of the pipeline without the cost of inference, and gives the
+/// tracker the simulator's detector model (known miss and false-positive rates).
 #[derive(Debug, Clone)]
 pub struct ReplayDetector {
     by_image: HashMap<u64, Vec<Detection>>,
@@ -64,7 +141,7 @@ impl ReplayDetector {
 }
 
 impl Detector for ReplayDetector {
-    fn detect(&mut self, frame: &Frame) -> Result<Vec<Detection>, DetectorError> {
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError> {
         let id = self
             .first_image_id
             .checked_add(frame.index)
@@ -104,7 +181,7 @@ mod tests {
         )
         .unwrap();
         let mut d = ReplayDetector::load(&path, 1).unwrap();
-        let f0 = d.detect(&frame(0)).unwrap();
+        let f0 = d.detect(frame(0)).unwrap();
         assert_eq!(f0.len(), 1);
         assert_eq!(
             f0[0].bbox,
@@ -115,8 +192,47 @@ mod tests {
                 h: 6.0
             }
         );
-        assert!(d.detect(&frame(1)).unwrap().is_empty());
-        assert_eq!(d.detect(&frame(2)).unwrap().len(), 2);
+        assert!(d.detect(frame(1)).unwrap().is_empty());
+        assert_eq!(d.detect(frame(2)).unwrap().len(), 2);
+    }
+
+    fn shipped_model() -> detect::DetectorConfig {
+        detect::DetectorConfig::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/models/mgmot-det-fp32.onnx"
+        ))
+    }
+
+    #[test]
+    fn onnx_detector_runs_on_a_frame_and_reports_its_timings() {
+        let mut d = OnnxDetector::load(shipped_model()).unwrap();
+        assert_eq!(d.model().class_names, ["swimmer", "boat"]);
+        let mut f = frame(5);
+        (f.width_px, f.height_px) = (160, 90);
+        f.rgb = vec![90; 160 * 90 * 3];
+        let found = d.detect(f).unwrap();
+        for det in &found {
+            assert!((1..=2).contains(&det.class_id), "{det:?}");
+            assert!(det.world.is_none());
+        }
+        let t = d.last_timings().unwrap();
+        assert!(t.inference > std::time::Duration::ZERO);
+    }
+
+    #[test]
+    fn onnx_detector_names_the_frame_with_a_bad_buffer() {
+        let mut d = OnnxDetector::load(shipped_model()).unwrap();
+        let mut f = frame(7);
+        (f.width_px, f.height_px) = (10, 10);
+        let e = d.detect(f).unwrap_err().to_string();
+        assert!(e.contains("frame 7") && e.contains("10x10"), "{e}");
+        assert!(d.last_timings().is_none());
+    }
+
+    #[test]
+    fn missing_model_names_the_file() {
+        let e = OnnxDetector::load(detect::DetectorConfig::new("/nonexistent/m.onnx")).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent/m.onnx"), "{e}");
     }
 
     #[test]

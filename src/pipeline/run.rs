@@ -2,7 +2,8 @@
 //! (detector -> pose -> geolocation -> tracker) and the track outputs, stopped by one
 //! [`Shutdown`].
 
-use super::{newest_slot, Detector, ReplayDetector, Shutdown, SlotReader, Taken};
+use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
+use super::{newest_slot, Detector, OnnxDetector, ReplayDetector, Shutdown, SlotReader, Taken};
 use crate::camera::{CameraStatus, CaptureTime, Frame};
 use crate::config::{Config, DetectorConfig};
 use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator};
@@ -51,8 +52,9 @@ pub enum PipelineError {
     Panicked(&'static str),
 }
 
-/// Counters of one run, logged and returned at the end.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+/// Counters and latency percentiles of one run, logged and returned at the end (`mgmot run
+/// --stats-json` writes them).
+#[derive(Debug, Default, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct RunStats {
     /// Frames the source delivered.
     pub frames_captured: u64,
@@ -66,6 +68,15 @@ pub struct RunStats {
     pub track_messages: u64,
     /// Outgoing messages dropped because the link queue was full.
     pub messages_dropped: u64,
+    /// Frames the detector failed on (reported by STATUSTEXT when it starts and stops failing).
+    pub detector_errors: u64,
+    /// Frames the tracker rejected.
+    pub tracker_errors: u64,
+    /// From the first frame taken by inference to the end of the last one processed (µs):
+    /// `frames_processed / active_us` is the sustained rate.
+    pub active_us: u64,
+    /// Per-stage latency percentiles over the whole run (see [`super::latency`]).
+    pub latency: LatencyReport,
 }
 
 /// Telemetry shared between the link's receive task and the inference thread.
@@ -89,16 +100,46 @@ impl Monotonic {
     }
 }
 
+/// A message for the link; track messages carry their frame's times for the latency
+/// histograms.
+#[derive(Debug)]
+struct Outgoing {
+    message: MavMessage,
+    /// Companion times of the frame's capture (when known) and of queueing.
+    timing: Option<(Option<CompanionTimeUs>, CompanionTimeUs)>,
+}
+
 /// Queues a message for the link, counting it when the queue is full.
 #[derive(Debug, Clone)]
 struct Outbox {
-    tx: mpsc::Sender<MavMessage>,
+    tx: mpsc::Sender<Outgoing>,
     dropped: Arc<AtomicU64>,
 }
 
 impl Outbox {
     fn send(&self, m: MavMessage) {
-        if self.tx.try_send(m).is_err() {
+        self.queue(Outgoing {
+            message: m,
+            timing: None,
+        });
+    }
+
+    /// Queues a track message of a frame captured at `captured`, queued at `queued`: the
+    /// sender records capture -> socket (end to end) and queued -> socket.
+    fn send_track(
+        &self,
+        m: MavMessage,
+        captured: Option<CompanionTimeUs>,
+        queued: CompanionTimeUs,
+    ) {
+        self.queue(Outgoing {
+            message: m,
+            timing: Some((captured, queued)),
+        });
+    }
+
+    fn queue(&self, out: Outgoing) {
+        if self.tx.try_send(out).is_err() {
             self.dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
@@ -145,7 +186,8 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         home: None,
         last_position_at: None,
     }));
-    let (out_tx, mut out_rx) = mpsc::channel::<MavMessage>(OUT_QUEUE);
+    let (out_tx, mut out_rx) = mpsc::channel::<Outgoing>(OUT_QUEUE);
+    let latency = Arc::new(Mutex::new(Latency::new()));
     let outbox = Outbox {
         tx: out_tx,
         dropped: Arc::new(AtomicU64::new(0)),
@@ -154,10 +196,19 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     // Sender task: the only writer of the connection.
     let sender = {
         let conn = conn.clone();
+        let latency = latency.clone();
         tokio::spawn(async move {
-            while let Some(m) = out_rx.recv().await {
-                if let Err(e) = conn.send(&header, &m).await {
+            while let Some(out) = out_rx.recv().await {
+                if let Err(e) = conn.send(&header, &out.message).await {
                     tracing::debug!(error = %e, "MAVLink send failed");
+                } else if let Some((captured, queued)) = out.timing {
+                    let now = clock.now();
+                    if let Ok(mut l) = latency.lock() {
+                        l.record_between_us(Stage::Send, queued.0, now.0);
+                        if let Some(c) = captured {
+                            l.record_between_us(Stage::EndToEnd, c.0, now.0);
+                        }
+                    }
                 }
             }
         })
@@ -296,6 +347,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
             detections,
             first_image_id,
         } => Box::new(ReplayDetector::load(detections, *first_image_id)?),
+        DetectorConfig::Onnx(onnx) => Box::new(OnnxDetector::load(onnx.settings())?),
     };
     let tracker =
         Tracker::new(config.tracker.clone()).map_err(|e| PipelineError::Tracker(e.to_string()))?;
@@ -321,11 +373,13 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         let telemetry = telemetry.clone();
         let outbox = outbox.clone();
         let cfg = config.clone();
+        let latency = latency.clone();
         std::thread::Builder::new()
             .name("inference".into())
             .spawn(move || {
                 infer(
-                    &cfg, reader, detector, tracker, &telemetry, &outbox, &shutdown,
+                    &cfg, clock, reader, detector, tracker, &telemetry, &outbox, &latency,
+                    &shutdown,
                 )
             })
             .map_err(|_| PipelineError::Panicked("inference"))?
@@ -344,22 +398,37 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     stats.messages_dropped = outbox.dropped.load(Ordering::Relaxed);
     drop(outbox);
     let _ = tokio::time::timeout(Duration::from_secs(2), sender).await;
+    if let Ok(l) = latency.lock() {
+        stats.latency = l.total();
+    }
+    tracing::info!(
+        latency = %stats.latency.to_log_line(),
+        "latency over the whole run (p50/p95/p99/max)"
+    );
     tracing::info!(?stats, "pipeline stopped");
     Ok(stats)
 }
 
 /// The inference loop: newest frame -> detections -> pose -> world observations -> tracker ->
-/// rate-limited track messages.
+/// rate-limited track messages, timing each stage (logged every [`LOG_INTERVAL`]).
+#[allow(clippy::too_many_arguments)]
 fn infer(
     config: &Config,
+    clock: Monotonic,
     reader: SlotReader<Frame>,
     mut detector: Box<dyn Detector>,
     mut tracker: Tracker,
     telemetry: &Mutex<Telemetry>,
     outbox: &Outbox,
+    latency: &Mutex<Latency>,
     shutdown: &Shutdown,
 ) -> RunStats {
     let mut stats = RunStats::default();
+    let mut first_taken: Option<Instant> = None;
+    let mut last_log = Instant::now();
+    let mut window_start = (0u64, 0u64);
+    // Whether the detector failed on the last frame: STATUSTEXT on each change, not per frame.
+    let mut detector_failing = false;
     let latency_us = (config.telemetry.camera_latency_ms * 1000.0) as u64;
     let track_period_us = (1e6 / config.outputs.track_rate_hz) as u64;
     let mut last_sent: HashMap<u64, u64> = HashMap::new();
@@ -371,24 +440,56 @@ fn infer(
         if shutdown.is_shutdown() {
             break;
         }
+        if last_log.elapsed() >= LOG_INTERVAL {
+            log_window(
+                latency,
+                &stats,
+                &mut window_start,
+                &reader,
+                last_log.elapsed(),
+            );
+            last_log = Instant::now();
+        }
         let frame = match reader.take(Duration::from_millis(100)) {
             Taken::Value(f) => f,
             Taken::Timeout => continue,
             Taken::Closed => break,
         };
         let started = Instant::now();
-        let detections = match detector.detect(&frame) {
-            Ok(d) => d,
+        let taken_at = clock.now();
+        first_taken.get_or_insert(started);
+        let (index, captured, width_px, height_px) =
+            (frame.index, frame.captured, frame.width_px, frame.height_px);
+        let detections = match detector.detect(frame) {
+            Ok(d) => {
+                if detector_failing {
+                    tracing::info!(failed_frames = stats.detector_errors, "detector ok again");
+                    outbox.send(link::statustext(Severity::Info, "mgmot: detector ok"));
+                    detector_failing = false;
+                }
+                d
+            }
             Err(e) => {
-                tracing::warn!(error = %e, "detector");
-                outbox.send(link::statustext(Severity::Warning, "mgmot: detector error"));
+                stats.detector_errors += 1;
+                if detector_failing {
+                    tracing::debug!(error = %e, "detector");
+                } else {
+                    tracing::warn!(error = %e, "detector failing");
+                    outbox.send(link::statustext(Severity::Warning, "mgmot: detector error"));
+                    detector_failing = true;
+                }
                 continue;
             }
         };
+        let detected = Instant::now();
         // The pose at the exposure time, on the autopilot clock.
-        let (frame_time, pose, water_amsl_m) = {
+        let (frame_time, captured_at, pose, water_amsl_m) = {
             let Ok(t) = telemetry.lock() else { break };
-            let frame_time = match frame.captured {
+            let captured_at = match captured {
+                CaptureTime::Autopilot(a) => t.clock.to_companion(a),
+                CaptureTime::Companion(c) => Some(c),
+            };
+            let frame_time = match captured {
                 CaptureTime::Autopilot(a) => Some(a),
                 CaptureTime::Companion(c) => t.clock.to_autopilot(c),
             }
@@ -398,7 +499,7 @@ fn infer(
                 .telemetry
                 .water_level_amsl_m
                 .or(t.home.map(|h| h.alt_m));
-            (frame_time, pose, water)
+            (frame_time, captured_at, pose, water)
         };
         let meta = match (&pose, water_amsl_m) {
             (Some(Ok(p)), Some(water)) => Some(FrameMetadata {
@@ -416,7 +517,7 @@ fn infer(
                     Some(Ok(_)) => "water level unknown (no HOME_POSITION)".into(),
                     None => "autopilot clock not known yet".into(),
                 };
-                tracing::warn!(frame = frame.index, %why, "no pose: tracking in the image only");
+                tracing::warn!(frame = index, %why, "no pose: tracking in the image only");
                 no_pose_reported = true;
             }
         } else {
@@ -424,11 +525,7 @@ fn infer(
         }
         if geolocator.is_none() {
             if let Some(m) = &meta {
-                match CameraModel::from_hfov(
-                    frame.width_px,
-                    frame.height_px,
-                    config.camera.hfov_deg,
-                ) {
+                match CameraModel::from_hfov(width_px, height_px, config.camera.hfov_deg) {
                     Ok(camera) => {
                         geolocator = Some(
                             Geolocator::new(m.nadir_on_water(), camera, config.geolocation.noise)
@@ -444,7 +541,7 @@ fn infer(
             _ => None,
         };
         let previous_geometry = match (&geolocator, &previous_meta, last_frame_index) {
-            (Some(g), Some(m), Some(prev)) if prev + 1 == frame.index => g.frame(m).ok(),
+            (Some(g), Some(m), Some(prev)) if prev + 1 == index => g.frame(m).ok(),
             _ => None,
         };
         let detections: Vec<Detection> = detections
@@ -460,29 +557,37 @@ fn infer(
             (Some(p), Some(c)) => p.image_motion_to(c).ok(),
             _ => None,
         };
-        let time_s = frame_time.map_or(frame.index as f64 / 30.0, |t| t.0 as f64 / 1e6);
+        let time_s = frame_time.map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6);
         let input = FrameInput {
-            frame_index: frame.index,
+            frame_index: index,
             time_s,
-            image_size_px: (frame.width_px, frame.height_px),
+            image_size_px: (width_px, height_px),
             detections,
             image_motion,
         };
+        let geolocated = Instant::now();
         let output = match tracker.step(&input) {
             Ok(o) => o,
             Err(e) => {
-                tracing::warn!(error = %e, frame = frame.index, "tracker rejected a frame");
+                stats.tracker_errors += 1;
+                tracing::warn!(error = %e, frame = index, "tracker rejected a frame");
                 continue;
             }
         };
+        let tracked = Instant::now();
         stats.frames_processed += 1;
+        // Forget the send times of tracks the tracker no longer reports (a flight sees
+        // thousands of ids; a track that comes back is simply due at once).
+        if last_sent.len() > 2 * output.tracks.len() + 64 {
+            last_sent.retain(|id, _| output.tracks.iter().any(|t| t.id == *id));
+        }
         let merged_from: HashMap<u64, u64> = output
             .merges
             .iter()
             .map(|m| (m.merged_into_id, m.new_id))
             .collect();
         let stamp = frame_time.unwrap_or(AutopilotTimeUs(0));
-        let (w, h) = (f64::from(frame.width_px), f64::from(frame.height_px));
+        let (w, h) = (f64::from(width_px), f64::from(height_px));
         for t in &output.tracks {
             let due = last_sent
                 .get(&t.id)
@@ -524,7 +629,7 @@ fn infer(
                 tracked: t.detection_index.is_some(),
                 geo,
             };
-            outbox.send(link::mgmot_track(&report));
+            outbox.send_track(link::mgmot_track(&report), captured_at, clock.now());
             stats.track_messages += 1;
             if config.outputs.target_absolute {
                 if let Some(m) = link::target_absolute(&report) {
@@ -532,15 +637,54 @@ fn infer(
                 }
             }
         }
+        let done = Instant::now();
+        if let Ok(mut l) = latency.lock() {
+            if let Some(c) = captured_at {
+                l.record_between_us(Stage::FrameAge, c.0, taken_at.0);
+            }
+            l.record(Stage::Detect, detected - started);
+            if let Some(t) = detector.last_timings() {
+                l.record(Stage::DetectInference, t.inference);
+            }
+            l.record(Stage::PoseGeolocate, geolocated - detected);
+            l.record(Stage::Track, tracked - geolocated);
+            l.record(Stage::Encode, done - tracked);
+            l.record(Stage::Processing, done - started);
+        }
+        stats.active_us = first_taken.map_or(0, |f| (done - f).as_micros() as u64);
         tracing::debug!(
-            frame = frame.index,
+            frame = index,
             tracks = output.tracks.len(),
-            elapsed_us = started.elapsed().as_micros() as u64,
+            elapsed_us = (done - started).as_micros() as u64,
             "frame processed"
         );
         previous_meta = meta;
-        last_frame_index = Some(frame.index);
+        last_frame_index = Some(index);
     }
     stats.frames_dropped = reader.dropped();
     stats
+}
+
+/// Logs the latency histograms of the interval just ended with the frame rate over it.
+fn log_window(
+    latency: &Mutex<Latency>,
+    stats: &RunStats,
+    window_start: &mut (u64, u64),
+    reader: &SlotReader<Frame>,
+    elapsed: Duration,
+) {
+    let Ok(mut l) = latency.lock() else { return };
+    let report = l.take_window();
+    drop(l);
+    let (processed, dropped) = (stats.frames_processed, reader.dropped());
+    let fps = (processed - window_start.0) as f64 / elapsed.as_secs_f64().max(1e-3);
+    tracing::info!(
+        fps = format_args!("{fps:.1}"),
+        frames_dropped = dropped - window_start.1,
+        detector_errors = stats.detector_errors,
+        latency = %report.to_log_line(),
+        "pipeline latency, last {:.0} s (p50/p95/p99/max)",
+        elapsed.as_secs_f64()
+    );
+    *window_start = (processed, dropped);
 }
