@@ -5,6 +5,7 @@
 //! operator-selected tracking (CAMERA_TRACKING_*) and no latency histograms yet.
 
 mod detector;
+pub mod operator;
 mod run;
 mod shutdown;
 mod slot;
