@@ -353,6 +353,12 @@ pub struct OutputsConfig {
     pub target_absolute: bool,
     /// HEARTBEATs per second.
     pub heartbeat_hz: f64,
+    /// CAMERA_TRACKING_IMAGE_STATUS + CAMERA_TRACKING_GEO_STATUS per second while an operator
+    /// has selected a track (MAV_CMD_CAMERA_TRACK_POINT / _RECTANGLE).
+    pub camera_tracking_hz: f64,
+    /// How far from a track's box a MAV_CMD_CAMERA_TRACK_POINT may land and still select it,
+    /// as a fraction of the image width, when the command's own radius (param 3) is 0.
+    pub track_point_radius: f64,
 }
 
 impl Default for OutputsConfig {
@@ -361,6 +367,8 @@ impl Default for OutputsConfig {
             track_rate_hz: 2.0,
             target_absolute: true,
             heartbeat_hz: 1.0,
+            camera_tracking_hz: 5.0,
+            track_point_radius: crate::pipeline::operator::DEFAULT_POINT_RADIUS,
         }
     }
 }
@@ -607,6 +615,17 @@ impl Config {
         if !positive(self.outputs.heartbeat_hz) {
             bad("outputs.heartbeat_hz", "must be > 0".into());
         }
+        if !positive(self.outputs.camera_tracking_hz) {
+            bad("outputs.camera_tracking_hz", "must be > 0".into());
+        }
+        if !(self.outputs.track_point_radius.is_finite()
+            && (0.0..=1.0).contains(&self.outputs.track_point_radius))
+        {
+            bad(
+                "outputs.track_point_radius",
+                "must be in 0..=1 (a fraction of the image width)".into(),
+            );
+        }
         if let Err(e) = self.tracker.validate() {
             bad("tracker", e.to_string());
         }
@@ -723,7 +742,8 @@ class_names = ["swimmer", "boat"]
             .replace("udpin:0.0.0.0:14550", "udp:nowhere")
             .replace(
                 "[frames]",
-                "[outputs]\ntrack_rate_hz = 0\n[mavlink.signing]\nkey_hex = \"abc\"\n[frames]",
+                "[outputs]\ntrack_rate_hz = 0\ncamera_tracking_hz = -1\ntrack_point_radius = 2\n\
+                 [mavlink.signing]\nkey_hex = \"abc\"\n[frames]",
             );
         let c = Config::parse(&text).unwrap();
         let keys: Vec<String> = c
@@ -737,7 +757,9 @@ class_names = ["swimmer", "boat"]
             [
                 "mavlink.connection",
                 "mavlink.signing.key_hex",
-                "outputs.track_rate_hz"
+                "outputs.track_rate_hz",
+                "outputs.camera_tracking_hz",
+                "outputs.track_point_radius"
             ]
         );
     }

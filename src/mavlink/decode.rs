@@ -1,9 +1,10 @@
 //! Incoming messages -> typed domain samples.
 
-use super::dialect::{self, GimbalDeviceFlags, MavCmd, MavMessage};
+use super::dialect::{self, GimbalDeviceFlags, MavCmd, MavMessage, CAMERA_INFORMATION_DATA};
 use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::Geodetic;
 use crate::telemetry::{AttitudeSample, AutopilotTimeUs, GimbalSample, PositionSample};
+use mavlink_core::MessageData as _;
 use nalgebra::{Quaternion, UnitQuaternion};
 
 /// An operator's camera-tracking command (MAV_CMD_CAMERA_TRACK_*), in normalised image
@@ -16,6 +17,9 @@ pub enum CameraCommand {
         x: f32,
         /// Vertical position (0 = top).
         y: f32,
+        /// How far from the point the target may be, as a fraction of the image width
+        /// (0: the receiver's default).
+        radius: f32,
     },
     /// MAV_CMD_CAMERA_TRACK_RECTANGLE: track what is inside the rectangle.
     TrackRectangle {
@@ -60,6 +64,38 @@ pub enum Incoming {
         /// Its MAV_CMD number (for the COMMAND_ACK).
         mav_cmd: MavCmd,
     },
+    /// MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION, addressed to us.
+    CameraInformationRequest,
+    /// A command sent to our component explicitly (not broadcast) that mgmot does not
+    /// implement: the sender is owed a COMMAND_ACK saying so.
+    UnsupportedCommand {
+        /// Its MAV_CMD number.
+        mav_cmd: MavCmd,
+    },
+}
+
+impl Incoming {
+    /// Whether this is a command (acted on or refused), as opposed to telemetry: with signing
+    /// on, only signed commands are obeyed.
+    pub fn is_command(&self) -> bool {
+        matches!(
+            self,
+            Incoming::Command { .. }
+                | Incoming::CameraInformationRequest
+                | Incoming::UnsupportedCommand { .. }
+        )
+    }
+
+    /// The MAV_CMD of a command (what its COMMAND_ACK names); `None` for telemetry.
+    pub fn mav_cmd(&self) -> Option<MavCmd> {
+        match self {
+            Incoming::Command { mav_cmd, .. } | Incoming::UnsupportedCommand { mav_cmd } => {
+                Some(*mav_cmd)
+            }
+            Incoming::CameraInformationRequest => Some(MavCmd::MAV_CMD_REQUEST_MESSAGE),
+            _ => None,
+        }
+    }
 }
 
 /// MAVLink's "no data" marker in the gimbal quaternion.
@@ -155,33 +191,75 @@ pub fn decode(
             tc1_ns: t.tc1,
             ts1_ns: t.ts1,
         }),
-        MavMessage::COMMAND_LONG(c) => {
-            let for_us = (c.target_system == 0 || c.target_system == our_system)
-                && (c.target_component == 0 || c.target_component == our_component);
-            if !for_us {
-                return None;
-            }
-            let command = match c.command {
-                MavCmd::MAV_CMD_CAMERA_TRACK_POINT => CameraCommand::TrackPoint {
-                    x: c.param1,
-                    y: c.param2,
-                },
-                MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE => CameraCommand::TrackRectangle {
-                    x0: c.param1,
-                    y0: c.param2,
-                    x1: c.param3,
-                    y1: c.param4,
-                },
-                MavCmd::MAV_CMD_CAMERA_STOP_TRACKING => CameraCommand::Stop,
-                _ => return None,
-            };
-            Some(Incoming::Command {
-                command,
-                mav_cmd: c.command,
-            })
-        }
+        MavMessage::COMMAND_LONG(c) => command(
+            c.command,
+            [
+                c.param1, c.param2, c.param3, c.param4, c.param5, c.param6, c.param7,
+            ],
+            (c.target_system, c.target_component),
+            (our_system, our_component),
+        ),
+        // COMMAND_INT carries params 5 and 6 as integers (x, y); none of the commands mgmot
+        // obeys uses them as positions.
+        MavMessage::COMMAND_INT(c) => command(
+            c.command,
+            [
+                c.param1, c.param2, c.param3, c.param4, c.x as f32, c.y as f32, c.z,
+            ],
+            (c.target_system, c.target_component),
+            (our_system, our_component),
+        ),
         _ => None,
     }
+}
+
+/// A COMMAND_LONG / COMMAND_INT with `params` 1..=7 sent to `target` (system, component).
+/// Commands for our system (or every system) and our component (or every component) are
+/// ours; of those, the camera-tracking ones must also name us (or every camera, 0) in their
+/// "target camera id" parameter. A command for our component alone that mgmot does not
+/// implement gives [`Incoming::UnsupportedCommand`]; broadcast ones are left to the
+/// components that implement them.
+fn command(
+    mav_cmd: MavCmd,
+    params: [f32; 7],
+    (target_system, target_component): (u8, u8),
+    (our_system, our_component): (u8, u8),
+) -> Option<Incoming> {
+    let for_us = (target_system == 0 || target_system == our_system)
+        && (target_component == 0 || target_component == our_component);
+    if !for_us {
+        return None;
+    }
+    // Target camera id: 0 (or unset) = every camera; 7..=255 = a MAVLink camera's component.
+    let for_this_camera = |p: f32| p.is_nan() || p == 0.0 || p == f32::from(our_component);
+    let [p1, p2, p3, p4, p5, ..] = params;
+    let command = match mav_cmd {
+        MavCmd::MAV_CMD_CAMERA_TRACK_POINT if for_this_camera(p4) => CameraCommand::TrackPoint {
+            x: p1,
+            y: p2,
+            radius: p3,
+        },
+        MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE if for_this_camera(p5) => {
+            CameraCommand::TrackRectangle {
+                x0: p1,
+                y0: p2,
+                x1: p3,
+                y1: p4,
+            }
+        }
+        MavCmd::MAV_CMD_CAMERA_STOP_TRACKING if for_this_camera(p1) => CameraCommand::Stop,
+        MavCmd::MAV_CMD_CAMERA_TRACK_POINT
+        | MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE
+        | MavCmd::MAV_CMD_CAMERA_STOP_TRACKING => return None,
+        MavCmd::MAV_CMD_REQUEST_MESSAGE if p1 == CAMERA_INFORMATION_DATA::ID as f32 => {
+            return Some(Incoming::CameraInformationRequest);
+        }
+        _ => {
+            return (target_component == our_component)
+                .then_some(Incoming::UnsupportedCommand { mav_cmd });
+        }
+    };
+    Some(Incoming::Command { command, mav_cmd })
 }
 
 /// ArduPilot's MOUNT_STATUS (centidegrees: a = pitch, b = roll, c = yaw relative to the
@@ -309,7 +387,11 @@ mod tests {
                 191
             ),
             Some(Incoming::Command {
-                command: CameraCommand::TrackPoint { x: 0.25, y: 0.5 },
+                command: CameraCommand::TrackPoint {
+                    x: 0.25,
+                    y: 0.5,
+                    radius: 0.0
+                },
                 mav_cmd: MavCmd::MAV_CMD_CAMERA_TRACK_POINT
             })
         );
@@ -322,18 +404,77 @@ mod tests {
             ),
             None
         );
+        // STOP_TRACKING's param 1 is the target camera id: 0 = every camera.
+        let stop = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+            ..Default::default()
+        });
         assert!(matches!(
-            decode(
-                &cmd(0, 0, MavCmd::MAV_CMD_CAMERA_STOP_TRACKING),
-                190,
-                1,
-                191
-            ),
+            decode(&stop, 190, 1, 191),
             Some(Incoming::Command {
                 command: CameraCommand::Stop,
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn command_int_rectangle_and_target_camera_id() {
+        let rect = |target_component, camera_id| {
+            MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+                target_system: 1,
+                target_component,
+                command: MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE,
+                param1: 0.1,
+                param2: 0.2,
+                param3: 0.3,
+                param4: 0.4,
+                x: camera_id,
+                ..Default::default()
+            })
+        };
+        let expected = Some(Incoming::Command {
+            command: CameraCommand::TrackRectangle {
+                x0: 0.1,
+                y0: 0.2,
+                x1: 0.3,
+                y1: 0.4,
+            },
+            mav_cmd: MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE,
+        });
+        assert_eq!(decode(&rect(191, 0), 190, 1, 191), expected);
+        assert_eq!(decode(&rect(0, 191), 190, 1, 191), expected);
+        // For another camera (component 100) behind a broadcast: not ours.
+        assert_eq!(decode(&rect(0, 100), 190, 1, 191), None);
+    }
+
+    #[test]
+    fn camera_information_request_and_unsupported_commands() {
+        let long = |target_component, command, param1| {
+            MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                target_system: 1,
+                target_component,
+                command,
+                param1,
+                ..Default::default()
+            })
+        };
+        let request = long(191, MavCmd::MAV_CMD_REQUEST_MESSAGE, 259.0);
+        assert_eq!(
+            decode(&request, 190, 1, 191),
+            Some(Incoming::CameraInformationRequest)
+        );
+        assert!(decode(&request, 190, 1, 191).unwrap().is_command());
+        // Another message, for us explicitly: unsupported; broadcast: someone else's.
+        let other = |target| long(target, MavCmd::MAV_CMD_REQUEST_MESSAGE, 148.0);
+        assert_eq!(
+            decode(&other(191), 190, 1, 191),
+            Some(Incoming::UnsupportedCommand {
+                mav_cmd: MavCmd::MAV_CMD_REQUEST_MESSAGE
+            })
+        );
+        assert_eq!(decode(&other(0), 190, 1, 191), None);
+        assert!(!Incoming::AutopilotHeartbeat.is_command());
     }
 
     #[test]

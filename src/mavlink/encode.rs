@@ -85,19 +85,37 @@ pub fn timesync_request(now: CompanionTimeUs) -> MavMessage {
     })
 }
 
-/// COMMAND_ACK for a command from `target_system` / `target_component`.
+/// The result of a command, as COMMAND_ACK reports it (MAV_RESULT).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AckResult {
+    /// Done (MAV_RESULT_ACCEPTED).
+    Accepted,
+    /// Cannot be done now, may work later: the command queue is full
+    /// (MAV_RESULT_TEMPORARILY_REJECTED).
+    TemporarilyRejected,
+    /// Invalid parameters, or refused (unsigned while signing is required) (MAV_RESULT_DENIED).
+    Denied,
+    /// Not implemented by mgmot (MAV_RESULT_UNSUPPORTED).
+    Unsupported,
+    /// Valid, but it did not work: nothing to track there (MAV_RESULT_FAILED).
+    Failed,
+}
+
+/// COMMAND_ACK for a command from `target_system` / `target_component` (the sender).
 pub fn command_ack(
     command: MavCmd,
-    accepted: bool,
+    result: AckResult,
     target_system: u8,
     target_component: u8,
 ) -> MavMessage {
     MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
         command,
-        result: if accepted {
-            MavResult::MAV_RESULT_ACCEPTED
-        } else {
-            MavResult::MAV_RESULT_DENIED
+        result: match result {
+            AckResult::Accepted => MavResult::MAV_RESULT_ACCEPTED,
+            AckResult::TemporarilyRejected => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            AckResult::Denied => MavResult::MAV_RESULT_DENIED,
+            AckResult::Unsupported => MavResult::MAV_RESULT_UNSUPPORTED,
+            AckResult::Failed => MavResult::MAV_RESULT_FAILED,
         },
         progress: 0,
         result_param2: 0,
@@ -227,6 +245,175 @@ pub fn target_absolute(r: &TrackReport) -> Option<MavMessage> {
     }))
 }
 
+/// How the operator selected the tracked target; the image status reports it the same way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackingMode {
+    /// By a point: reported as the box centre and a radius.
+    Point,
+    /// By a rectangle: reported as the box.
+    Rectangle,
+}
+
+/// The operator-selected track, for CAMERA_TRACKING_IMAGE_STATUS and
+/// CAMERA_TRACKING_GEO_STATUS.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackingStatus {
+    /// How it was selected.
+    pub mode: TrackingMode,
+    /// Box (x, y, w, h) as fractions of the image size.
+    pub bbox_norm: [f32; 4],
+    /// Image width / height, to express the point radius as a fraction of the width.
+    pub aspect: f32,
+    /// Not detected in the latest frame: box and position are the filters' predictions.
+    pub coasting: bool,
+    /// Geolocation, when the frame had a usable pose.
+    pub geo: Option<TrackGeo>,
+    /// Standard deviation of the velocity (m/s), per axis (the root mean of the north and
+    /// east variances); `None` when unknown.
+    pub vel_std_mps: Option<f64>,
+    /// Distance from the camera to the object (m); `None` when unknown.
+    pub range_m: Option<f64>,
+}
+
+fn nan_or(v: Option<f64>) -> f32 {
+    v.map_or(f32::NAN, |v| v as f32)
+}
+
+fn tracking_flags(s: &TrackingStatus) -> CameraTrackingStatusFlags {
+    let mut flags = CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE;
+    if s.coasting {
+        flags |= CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_COASTING;
+    }
+    flags
+}
+
+/// CAMERA_TRACKING_IMAGE_STATUS: the selected track's box (`Some`), or "not tracking"
+/// (`None`: status IDLE, mode NONE, every coordinate NaN).
+pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
+    let nan = f32::NAN;
+    let mut m = CAMERA_TRACKING_IMAGE_STATUS_DATA {
+        tracking_status: CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE,
+        tracking_mode: CameraTrackingMode::CAMERA_TRACKING_MODE_NONE,
+        target_data: CameraTrackingTargetData::empty(),
+        point_x: nan,
+        point_y: nan,
+        radius: nan,
+        rec_top_x: nan,
+        rec_top_y: nan,
+        rec_bottom_x: nan,
+        rec_bottom_y: nan,
+        camera_device_id: 0,
+    };
+    if let Some(s) = s {
+        let [x, y, w, h] = s.bbox_norm;
+        m.tracking_status = tracking_flags(s);
+        m.target_data = CameraTrackingTargetData::CAMERA_TRACKING_TARGET_DATA_IN_STATUS;
+        match s.mode {
+            TrackingMode::Point => {
+                m.tracking_mode = CameraTrackingMode::CAMERA_TRACKING_MODE_POINT;
+                m.point_x = x + w / 2.0;
+                m.point_y = y + h / 2.0;
+                // Half the larger side, as a fraction of the image width.
+                m.radius = w.max(h / s.aspect) / 2.0;
+            }
+            TrackingMode::Rectangle => {
+                m.tracking_mode = CameraTrackingMode::CAMERA_TRACKING_MODE_RECTANGLE;
+                m.rec_top_x = x;
+                m.rec_top_y = y;
+                m.rec_bottom_x = x + w;
+                m.rec_bottom_y = y + h;
+            }
+        }
+    }
+    MavMessage::CAMERA_TRACKING_IMAGE_STATUS(m)
+}
+
+/// CAMERA_TRACKING_GEO_STATUS: the selected track's position on the sea (`Some`), or "not
+/// tracking" (`None`: status IDLE). A selected track without geolocation (no telemetry pose)
+/// is reported ACTIVE | ERROR with lat = lon = 0 and every other field NaN: the message has
+/// no other way to say "position unknown". The object is on the sea surface: `vel_d` = 0,
+/// `alt` = the water level; `h_acc` is the DRMS of the position (as in MGMOT_TRACK);
+/// the heading is that of the velocity, NaN while the speed is within its own uncertainty.
+pub fn camera_tracking_geo_status(s: Option<&TrackingStatus>) -> MavMessage {
+    let nan = f32::NAN;
+    let mut m = CAMERA_TRACKING_GEO_STATUS_DATA {
+        tracking_status: CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE,
+        lat: 0,
+        lon: 0,
+        alt: nan,
+        h_acc: nan,
+        v_acc: nan,
+        vel_n: nan,
+        vel_e: nan,
+        vel_d: nan,
+        vel_acc: nan,
+        dist: nan,
+        hdg: nan,
+        hdg_acc: nan,
+        camera_device_id: 0,
+    };
+    let Some(s) = s else {
+        return MavMessage::CAMERA_TRACKING_GEO_STATUS(m);
+    };
+    m.tracking_status = tracking_flags(s);
+    match &s.geo {
+        None => {
+            m.tracking_status |= CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR;
+        }
+        Some(g) => {
+            m.lat = deg_e7(g.position.lat_deg);
+            m.lon = deg_e7(g.position.lon_deg);
+            m.alt = g.position.alt_m as f32;
+            m.h_acc = g.h_std_m as f32;
+            m.vel_n = g.vel_n_mps as f32;
+            m.vel_e = g.vel_e_mps as f32;
+            m.vel_d = 0.0;
+            m.vel_acc = nan_or(s.vel_std_mps);
+            m.dist = nan_or(s.range_m);
+            let speed = g.vel_n_mps.hypot(g.vel_e_mps);
+            if let Some(std) = s.vel_std_mps.filter(|std| speed > *std) {
+                m.hdg = g
+                    .vel_e_mps
+                    .atan2(g.vel_n_mps)
+                    .rem_euclid(std::f64::consts::TAU) as f32;
+                m.hdg_acc = (std / speed).atan() as f32;
+            }
+        }
+    }
+    MavMessage::CAMERA_TRACKING_GEO_STATUS(m)
+}
+
+/// CAMERA_INFORMATION describing mgmot as a tracking "camera" (answer to
+/// MAV_CMD_REQUEST_MESSAGE): the capability flags tell a GCS that point and rectangle tracking
+/// and the geo status are available. Image size 0 = not known yet.
+pub fn camera_information(time_boot_ms: u32, image_size_px: Option<(u32, u32)>) -> MavMessage {
+    let mut vendor_name = [0u8; 32];
+    vendor_name[..5].copy_from_slice(b"mgmot");
+    let mut model_name = [0u8; 32];
+    let model = b"mgmot tracker";
+    model_name[..model.len()].copy_from_slice(model);
+    let (w, h) = image_size_px.unwrap_or((0, 0));
+    MavMessage::CAMERA_INFORMATION(CAMERA_INFORMATION_DATA {
+        time_boot_ms,
+        vendor_name,
+        model_name,
+        firmware_version: 0,
+        focal_length: f32::NAN,
+        sensor_size_h: f32::NAN,
+        sensor_size_v: f32::NAN,
+        resolution_h: u16::try_from(w).unwrap_or(0),
+        resolution_v: u16::try_from(h).unwrap_or(0),
+        lens_id: 0,
+        flags: CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_POINT
+            | CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_RECTANGLE
+            | CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_GEO_STATUS,
+        cam_definition_version: 0,
+        cam_definition_uri: "".into(),
+        gimbal_device_id: 0,
+        camera_device_id: 0,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -302,6 +489,158 @@ mod tests {
         };
         assert_eq!(a.id, 7);
         assert_eq!(a.position_std[0], 1.5);
+    }
+
+    fn tracking(mode: TrackingMode, geo: bool) -> TrackingStatus {
+        TrackingStatus {
+            mode,
+            bbox_norm: [0.5, 0.25, 0.1, 0.2],
+            aspect: 2.0,
+            coasting: false,
+            geo: report(geo).geo,
+            vel_std_mps: Some(0.1),
+            range_m: Some(42.0),
+        }
+    }
+
+    #[test]
+    fn image_status_point_rectangle_and_idle() {
+        let MavMessage::CAMERA_TRACKING_IMAGE_STATUS(p) = round_trip(
+            &camera_tracking_image_status(Some(&tracking(TrackingMode::Point, true))),
+        ) else {
+            panic!()
+        };
+        assert_eq!(
+            p.tracking_status,
+            CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+        );
+        assert_eq!(
+            p.tracking_mode,
+            CameraTrackingMode::CAMERA_TRACKING_MODE_POINT
+        );
+        assert_eq!(
+            p.target_data,
+            CameraTrackingTargetData::CAMERA_TRACKING_TARGET_DATA_IN_STATUS
+        );
+        assert!((p.point_x - 0.55).abs() < 1e-6 && (p.point_y - 0.35).abs() < 1e-6);
+        // Box 0.1 of the width wide and 0.2 of the height = 0.1 of the width high.
+        assert!((p.radius - 0.05).abs() < 1e-6);
+        assert!(p.rec_top_x.is_nan());
+
+        let mut coasting = tracking(TrackingMode::Rectangle, true);
+        coasting.coasting = true;
+        let MavMessage::CAMERA_TRACKING_IMAGE_STATUS(r) =
+            camera_tracking_image_status(Some(&coasting))
+        else {
+            panic!()
+        };
+        assert_eq!(
+            r.tracking_mode,
+            CameraTrackingMode::CAMERA_TRACKING_MODE_RECTANGLE
+        );
+        assert!(r
+            .tracking_status
+            .contains(CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_COASTING));
+        assert_eq!(
+            [r.rec_top_x, r.rec_top_y, r.rec_bottom_x, r.rec_bottom_y],
+            [0.5, 0.25, 0.6, 0.45]
+        );
+        assert!(r.point_x.is_nan());
+
+        let MavMessage::CAMERA_TRACKING_IMAGE_STATUS(i) = camera_tracking_image_status(None) else {
+            panic!()
+        };
+        assert_eq!(
+            i.tracking_status,
+            CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE
+        );
+        assert_eq!(
+            i.tracking_mode,
+            CameraTrackingMode::CAMERA_TRACKING_MODE_NONE
+        );
+    }
+
+    #[test]
+    fn geo_status_with_and_without_geolocation() {
+        let MavMessage::CAMERA_TRACKING_GEO_STATUS(g) = round_trip(&camera_tracking_geo_status(
+            Some(&tracking(TrackingMode::Point, true)),
+        )) else {
+            panic!()
+        };
+        assert_eq!(
+            g.tracking_status,
+            CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+        );
+        assert_eq!((g.lat, g.lon), (476_721_234, 92_679_876));
+        assert_eq!((g.alt, g.h_acc, g.dist), (395.0, 1.5, 42.0));
+        assert_eq!(
+            (g.vel_n, g.vel_e, g.vel_d, g.vel_acc),
+            (0.3, -0.1, 0.0, 0.1)
+        );
+        // Moving north-north-west: heading atan2(-0.1, 0.3) = 341.6 deg.
+        assert!(
+            (f64::from(g.hdg).to_degrees() - 341.565).abs() < 0.01,
+            "{}",
+            g.hdg
+        );
+        assert!(g.hdg_acc > 0.0 && g.hdg_acc < 0.5);
+        assert!(g.v_acc.is_nan());
+
+        // Slower than its own uncertainty: no heading.
+        let mut slow = tracking(TrackingMode::Point, true);
+        slow.vel_std_mps = Some(1.0);
+        let MavMessage::CAMERA_TRACKING_GEO_STATUS(g) = camera_tracking_geo_status(Some(&slow))
+        else {
+            panic!()
+        };
+        assert!(g.hdg.is_nan() && g.hdg_acc.is_nan());
+
+        let MavMessage::CAMERA_TRACKING_GEO_STATUS(g) =
+            camera_tracking_geo_status(Some(&tracking(TrackingMode::Point, false)))
+        else {
+            panic!()
+        };
+        assert_eq!(
+            g.tracking_status,
+            CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+                | CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR
+        );
+        assert_eq!((g.lat, g.lon), (0, 0));
+        assert!(g.alt.is_nan() && g.h_acc.is_nan() && g.vel_n.is_nan());
+
+        let MavMessage::CAMERA_TRACKING_GEO_STATUS(g) = camera_tracking_geo_status(None) else {
+            panic!()
+        };
+        assert_eq!(
+            g.tracking_status,
+            CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE
+        );
+    }
+
+    #[test]
+    fn command_ack_results_and_camera_information() {
+        let MavMessage::COMMAND_ACK(a) = command_ack(
+            MavCmd::MAV_CMD_CAMERA_TRACK_POINT,
+            AckResult::Failed,
+            255,
+            190,
+        ) else {
+            panic!()
+        };
+        assert_eq!(a.result, MavResult::MAV_RESULT_FAILED);
+        assert_eq!((a.target_system, a.target_component), (255, 190));
+        let MavMessage::CAMERA_INFORMATION(c) =
+            round_trip(&camera_information(1000, Some((1280, 720))))
+        else {
+            panic!()
+        };
+        assert!(c.flags.contains(
+            CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_POINT
+                | CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_RECTANGLE
+                | CameraCapFlags::CAMERA_CAP_FLAGS_HAS_TRACKING_GEO_STATUS
+        ));
+        assert_eq!((c.resolution_h, c.resolution_v), (1280, 720));
+        assert_eq!(&c.vendor_name[..6], b"mgmot\0");
     }
 
     #[test]

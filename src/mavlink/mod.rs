@@ -7,6 +7,8 @@
 mod address;
 mod decode;
 mod encode;
+mod signing;
+mod status;
 
 include!(concat!(env!("OUT_DIR"), "/mavlink-bindings/declare.rs"));
 pub use self::mgmot as dialect;
@@ -14,9 +16,13 @@ pub use self::mgmot as dialect;
 pub use address::{parse_connection, AddressError};
 pub use decode::{decode, decode_mount_status, CameraCommand, Incoming};
 pub use encode::{
-    command_ack, heartbeat, message_interval_request, mgmot_track, statustext, target_absolute,
-    timesync_request, Severity, TrackGeo, TrackReport, STREAMS,
+    camera_information, camera_tracking_geo_status, camera_tracking_image_status, command_ack,
+    heartbeat, message_interval_request, mgmot_track, statustext, target_absolute,
+    timesync_request, AckResult, Severity, TrackGeo, TrackReport, TrackingMode, TrackingStatus,
+    STREAMS,
 };
+pub use signing::{is_signed, parse_raw, signing_config};
+pub use status::{Condition, ConditionReport};
 
 /// Our component id: MAV_COMP_ID_ONBOARD_COMPUTER.
 pub const COMPONENT_ID: u8 = 191;

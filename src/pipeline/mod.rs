@@ -1,13 +1,14 @@
 //! Wiring of the onboard runtime: capture -> newest-frame slot -> inference (detector, pose,
 //! tracker) -> MAVLink outputs, with one shutdown signal for all stages.
 //!
-//! Status: frame source = the simulator's socket only; detector = the ONNX model or the
-//! replay of the simulator's detections (bench); per-stage latency histograms in the logs
-//! ([`latency`]); no operator-selected tracking (CAMERA_TRACKING_*) yet.
+//! Frame sources: V4L2, an image directory or the simulator's socket ([`crate::camera`]);
+//! detector: the ONNX model or the replay of the simulator's detections (bench); per-stage
+//! latency histograms in the logs ([`latency`]); operator-selected tracking ([`operator`]).
 
 mod capture;
 mod detector;
 pub mod latency;
+pub mod operator;
 mod run;
 mod shutdown;
 mod slot;

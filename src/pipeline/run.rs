@@ -3,15 +3,19 @@
 //! [`Shutdown`].
 
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
+use super::operator::{self, Candidate, CommandResult, Outcome, Selection};
 use super::{newest_slot, Detector, OnnxDetector, ReplayDetector, Shutdown, SlotReader, Taken};
 use crate::camera::{CameraStatus, CaptureTime, Frame};
 use crate::config::{Config, DetectorConfig};
 use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator};
 use crate::mavlink::{
-    self as link, dialect::MavMessage, Incoming, Severity, TrackGeo, TrackReport,
+    self as link,
+    dialect::{MavCmd, MavMessage},
+    AckResult, CameraCommand, Condition, ConditionReport, Incoming, Severity, TrackGeo,
+    TrackReport, TrackingMode, TrackingStatus,
 };
 use crate::telemetry::{AutopilotTimeUs, ClockSync, CompanionTimeUs, PoseBuffer};
-use crate::track::{Detection, FrameInput, Tracker, WorldObservation};
+use crate::track::{Detection, FrameInput, TrackOutput, TrackState, Tracker, WorldObservation};
 use mavlink_core::{AsyncMavConnection, MavHeader, MavlinkVersion};
 use nalgebra::{UnitQuaternion, Vector3};
 use std::collections::HashMap;
@@ -23,6 +27,11 @@ use tokio::sync::mpsc;
 /// Outgoing messages queued for the link: enough for every track of a busy frame; when the
 /// link cannot keep up, messages are dropped and counted rather than stalling inference.
 const OUT_QUEUE: usize = 1024;
+
+/// Operator commands waiting for the inference thread: a GCS sends one at a time and retries
+/// unanswered ones, so a few are plenty; beyond that the command is answered
+/// TEMPORARILY_REJECTED.
+const COMMAND_QUEUE: usize = 8;
 
 /// Why the runtime stopped with an error.
 #[derive(Debug, thiserror::Error)]
@@ -156,14 +165,14 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
             source,
         })?;
     conn.set_protocol_version(MavlinkVersion::V2);
-    if let Some(key) = config.mavlink.signing.as_ref().and_then(|s| s.key()) {
+    let signing_key = config.mavlink.signing.as_ref().and_then(|s| s.key());
+    if let Some(key) = signing_key {
         let link_id = config.mavlink.signing.as_ref().map_or(0, |s| s.link_id);
-        // Sign everything we send; accept nothing unsigned (stricter than "reject unsigned
-        // commands": with signing on, the autopilot signs its telemetry too).
-        conn.setup_signing(Some(mavlink_core::SigningConfig::new(
-            key, link_id, true, false,
-        )));
+        // Sign everything we send; verify signed frames; let unsigned ones through so that
+        // unsigned telemetry is still used, and refuse unsigned commands below.
+        conn.setup_signing(Some(link::signing_config(key, link_id)));
     }
+    let commands_need_signature = signing_key.is_some();
     let conn = Arc::new(conn);
     let header = MavHeader {
         system_id: u32::from(config.mavlink.system_id),
@@ -230,18 +239,20 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
             ));
         }
     }
+    let (command_tx, command_rx) = std::sync::mpsc::sync_channel::<OperatorCommand>(COMMAND_QUEUE);
     let receiver = {
         let conn = conn.clone();
         let telemetry = telemetry.clone();
+        let outbox = outbox.clone();
         let mut shutdown = shutdown.clone();
         let (our_system, our_component) = (config.mavlink.system_id, config.mavlink.component_id);
         tokio::spawn(async move {
             loop {
                 let received = tokio::select! {
                     _ = shutdown.recv() => break,
-                    r = conn.recv() => r,
+                    r = conn.recv_raw() => r,
                 };
-                let (hdr, msg) = match received {
+                let raw = match received {
                     Ok(x) => x,
                     Err(e) => {
                         tracing::trace!(error = %e, "MAVLink receive");
@@ -249,6 +260,10 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                         tokio::time::sleep(Duration::from_millis(1)).await;
                         continue;
                     }
+                };
+                let signed = link::is_signed(&raw);
+                let Ok((hdr, msg)) = link::parse_raw(&raw) else {
+                    continue;
                 };
                 let now = clock.now();
                 let Ok(mut t) = telemetry.lock() else { break };
@@ -281,7 +296,51 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                             );
                         }
                     }
-                    Some(Incoming::Command { .. }) | Some(Incoming::AutopilotHeartbeat) | None => {}
+                    Some(c) if c.is_command() => {
+                        let (Ok(from_system), from_component) =
+                            (u8::try_from(hdr.system_id), hdr.component_id)
+                        else {
+                            continue;
+                        };
+                        let ack = |mav_cmd, result| {
+                            link::command_ack(mav_cmd, result, from_system, from_component)
+                        };
+                        match c {
+                            _ if commands_need_signature && !signed => {
+                                tracing::warn!(
+                                    from_system,
+                                    from_component,
+                                    "unsigned command refused (signing is on)"
+                                );
+                                if let Some(mav_cmd) = c.mav_cmd() {
+                                    outbox.send(ack(mav_cmd, AckResult::Denied));
+                                }
+                            }
+                            Incoming::Command { command, mav_cmd } => {
+                                let queued = command_tx.try_send(OperatorCommand {
+                                    request: operator_request(command),
+                                    mav_cmd,
+                                    from: (from_system, from_component),
+                                });
+                                if queued.is_err() {
+                                    outbox.send(ack(mav_cmd, AckResult::TemporarilyRejected));
+                                }
+                            }
+                            Incoming::CameraInformationRequest => {
+                                outbox.send(ack(
+                                    MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                                    AckResult::Accepted,
+                                ));
+                                let boot_ms = u32::try_from(now.0 / 1000).unwrap_or(u32::MAX);
+                                outbox.send(link::camera_information(boot_ms, None));
+                            }
+                            Incoming::UnsupportedCommand { mav_cmd } => {
+                                outbox.send(ack(mav_cmd, AckResult::Unsupported));
+                            }
+                            _ => {}
+                        }
+                    }
+                    Some(_) | None => {}
                 }
             }
         })
@@ -316,10 +375,12 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                     last_timesync = Some(Instant::now());
                 }
                 let now = clock.now();
+                // Before the first fix, telemetry has had since start-up to arrive: it is not
+                // "lost" (and not announced) until `lost_after_ms` have passed without it.
                 let ok = telemetry
                     .lock()
                     .ok()
-                    .and_then(|t| t.last_position_at)
+                    .map(|t| t.last_position_at.unwrap_or(CompanionTimeUs(0)))
                     .is_some_and(|at| now.0.saturating_sub(at.0) <= lost_after_us);
                 if telemetry_ok != Some(ok) {
                     let (severity, text) = if ok {
@@ -374,12 +435,13 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         let outbox = outbox.clone();
         let cfg = config.clone();
         let latency = latency.clone();
+        let operator = OperatorLink::new(&config, command_rx);
         std::thread::Builder::new()
             .name("inference".into())
             .spawn(move || {
                 infer(
                     &cfg, clock, reader, detector, tracker, &telemetry, &outbox, &latency,
-                    &shutdown,
+                    &shutdown, operator,
                 )
             })
             .map_err(|_| PipelineError::Panicked("inference"))?
@@ -410,7 +472,8 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
 }
 
 /// The inference loop: newest frame -> detections -> pose -> world observations -> tracker ->
-/// rate-limited track messages, timing each stage (logged every [`LOG_INTERVAL`]).
+/// rate-limited track messages and the operator-selected track's status, timing each stage
+/// (logged every [`LOG_INTERVAL`]).
 #[allow(clippy::too_many_arguments)]
 fn infer(
     config: &Config,
@@ -422,13 +485,12 @@ fn infer(
     outbox: &Outbox,
     latency: &Mutex<Latency>,
     shutdown: &Shutdown,
+    mut operator: OperatorLink,
 ) -> RunStats {
     let mut stats = RunStats::default();
     let mut first_taken: Option<Instant> = None;
     let mut last_log = Instant::now();
     let mut window_start = (0u64, 0u64);
-    // Whether the detector failed on the last frame: STATUSTEXT on each change, not per frame.
-    let mut detector_failing = false;
     let latency_us = (config.telemetry.camera_latency_ms * 1000.0) as u64;
     let track_period_us = (1e6 / config.outputs.track_rate_hz) as u64;
     let mut last_sent: HashMap<u64, u64> = HashMap::new();
@@ -436,6 +498,7 @@ fn infer(
     let mut previous_meta: Option<FrameMetadata> = None;
     let mut last_frame_index: Option<u64> = None;
     let mut no_pose_reported = false;
+    let mut detector_health = ConditionReport::new(Condition::Detector);
     loop {
         if shutdown.is_shutdown() {
             break;
@@ -452,7 +515,11 @@ fn infer(
         }
         let frame = match reader.take(Duration::from_millis(100)) {
             Taken::Value(f) => f,
-            Taken::Timeout => continue,
+            Taken::Timeout => {
+                // No frame: commands are still answered, against the last frame's tracks.
+                operator.answer_commands(outbox);
+                continue;
+            }
             Taken::Closed => break,
         };
         let started = Instant::now();
@@ -462,21 +529,19 @@ fn infer(
             (frame.index, frame.captured, frame.width_px, frame.height_px);
         let detections = match detector.detect(frame) {
             Ok(d) => {
-                if detector_failing {
+                if let Some(m) = detector_health.observe(true, None) {
                     tracing::info!(failed_frames = stats.detector_errors, "detector ok again");
-                    outbox.send(link::statustext(Severity::Info, "mgmot: detector ok"));
-                    detector_failing = false;
+                    outbox.send(m);
                 }
                 d
             }
             Err(e) => {
                 stats.detector_errors += 1;
-                if detector_failing {
-                    tracing::debug!(error = %e, "detector");
-                } else {
+                if let Some(m) = detector_health.observe(false, Some(&e.to_string())) {
                     tracing::warn!(error = %e, "detector failing");
-                    outbox.send(link::statustext(Severity::Warning, "mgmot: detector error"));
-                    detector_failing = true;
+                    outbox.send(m);
+                } else {
+                    tracing::debug!(error = %e, "detector");
                 }
                 continue;
             }
@@ -597,23 +662,7 @@ fn infer(
                 continue;
             }
             last_sent.insert(t.id, stamp.0);
-            let geo = match (&geolocator, &t.world, &meta) {
-                (Some(g), Some(ws), Some(_)) => {
-                    let mut p =
-                        g.reference()
-                            .to_geodetic(&Vector3::new(ws.pos_ne_m.x, ws.pos_ne_m.y, 0.0));
-                    if let Some(water) = water_amsl_m {
-                        p.alt_m = water;
-                    }
-                    Some(TrackGeo {
-                        position: p,
-                        vel_n_mps: ws.vel_ne_m_s.x,
-                        vel_e_mps: ws.vel_ne_m_s.y,
-                        h_std_m: ws.pos_cov_m2().trace().max(0.0).sqrt(),
-                    })
-                }
-                _ => None,
-            };
+            let geo = track_geo(t, geolocator.as_ref(), meta.is_some(), water_amsl_m);
             let report = TrackReport {
                 time: stamp,
                 track_id: t.id,
@@ -637,6 +686,24 @@ fn infer(
                 }
             }
         }
+        let has_pose = meta.is_some();
+        operator.after_step(
+            &output,
+            &tracker,
+            (width_px, height_px),
+            |t: &TrackOutput| {
+                let geo = track_geo(t, geolocator.as_ref(), has_pose, water_amsl_m);
+                let range_m = match (&geometry, &geo) {
+                    (Some(g), Some(_)) => t.world.map(|ws| {
+                        let camera = g.pose_in_reference().position_ned;
+                        (Vector3::new(ws.pos_ne_m.x, ws.pos_ne_m.y, 0.0) - camera).norm()
+                    }),
+                    _ => None,
+                };
+                (geo, range_m)
+            },
+            outbox,
+        );
         let done = Instant::now();
         if let Ok(mut l) = latency.lock() {
             if let Some(c) = captured_at {
@@ -687,4 +754,194 @@ fn log_window(
         elapsed.as_secs_f64()
     );
     *window_start = (processed, dropped);
+}
+
+/// The geolocation of a track for the outputs: its world state on the sea surface (altitude =
+/// the water level), only when this frame had a usable pose (`geolocated`); without one the
+/// outputs say "geolocation invalid" rather than repeat an old position.
+fn track_geo(
+    t: &TrackOutput,
+    geolocator: Option<&Geolocator>,
+    geolocated: bool,
+    water_amsl_m: Option<f64>,
+) -> Option<TrackGeo> {
+    let (g, ws) = (geolocator?, t.world.as_ref()?);
+    if !geolocated {
+        return None;
+    }
+    let mut p = g
+        .reference()
+        .to_geodetic(&Vector3::new(ws.pos_ne_m.x, ws.pos_ne_m.y, 0.0));
+    if let Some(water) = water_amsl_m {
+        p.alt_m = water;
+    }
+    Some(TrackGeo {
+        position: p,
+        vel_n_mps: ws.vel_ne_m_s.x,
+        vel_e_mps: ws.vel_ne_m_s.y,
+        // DRMS, as geo::Geolocation::h_std_m.
+        h_std_m: ws.pos_cov_m2().trace().max(0.0).sqrt(),
+    })
+}
+
+/// An operator's camera-tracking command on its way from the link to the inference thread.
+#[derive(Debug, Clone, Copy)]
+struct OperatorCommand {
+    /// What is asked.
+    request: operator::Request,
+    /// The command number, for the COMMAND_ACK.
+    mav_cmd: MavCmd,
+    /// Sender (system, component): the COMMAND_ACK goes back to it.
+    from: (u8, u8),
+}
+
+fn operator_request(c: CameraCommand) -> operator::Request {
+    match c {
+        CameraCommand::TrackPoint { x, y, radius } => operator::Request::Point {
+            x: f64::from(x),
+            y: f64::from(y),
+            radius: Some(f64::from(radius)),
+        },
+        CameraCommand::TrackRectangle { x0, y0, x1, y1 } => operator::Request::Rectangle {
+            x0: f64::from(x0),
+            y0: f64::from(y0),
+            x1: f64::from(x1),
+            y1: f64::from(y1),
+        },
+        CameraCommand::Stop => operator::Request::Stop,
+    }
+}
+
+/// The inference thread's side of operator tracking: the command queue, the selection, and
+/// the timing of the CAMERA_TRACKING_* status messages.
+struct OperatorLink {
+    /// Commands from the link's receive task.
+    commands: std::sync::mpsc::Receiver<OperatorCommand>,
+    /// Which track is selected.
+    selection: Selection,
+    /// The confirmed tracks of the latest frame: what a command can select.
+    candidates: Vec<Candidate>,
+    /// The latest frame's size (px); `None` before the first frame.
+    image_size_px: Option<(u32, u32)>,
+    /// Time between status messages of the selected track.
+    status_every: Duration,
+    /// When status was last sent (`None`: send at the next frame).
+    last_status: Option<Instant>,
+}
+
+impl OperatorLink {
+    fn new(config: &Config, commands: std::sync::mpsc::Receiver<OperatorCommand>) -> Self {
+        Self {
+            commands,
+            selection: Selection::new(config.outputs.track_point_radius),
+            candidates: Vec::new(),
+            image_size_px: None,
+            // Validated > 0; the fallback only keeps an unchecked config from panicking.
+            status_every: Duration::try_from_secs_f64(1.0 / config.outputs.camera_tracking_hz)
+                .unwrap_or(Duration::from_millis(200)),
+            last_status: None,
+        }
+    }
+
+    /// Answers every queued command against the latest tracks.
+    fn answer_commands(&mut self, outbox: &Outbox) {
+        while let Ok(c) = self.commands.try_recv() {
+            let outcome = self
+                .selection
+                .command(&c.request, &self.candidates, self.image_size_px);
+            let result = match outcome.result() {
+                CommandResult::Accepted => AckResult::Accepted,
+                CommandResult::Denied => AckResult::Denied,
+                CommandResult::Failed => AckResult::Failed,
+            };
+            tracing::info!(request = ?c.request, ?outcome, "operator command");
+            outbox.send(link::command_ack(c.mav_cmd, result, c.from.0, c.from.1));
+            match outcome {
+                Outcome::Selected { .. } => self.last_status = None,
+                Outcome::Stopped { .. } => send_idle_status(outbox),
+                Outcome::Refused(_) => {}
+            }
+        }
+    }
+
+    /// After a tracker step: keep the selection on its track (merges, removal), answer the
+    /// queued commands against this frame's tracks, and send the selected track's status
+    /// when due. `geo` gives a track's geolocation and camera distance.
+    fn after_step(
+        &mut self,
+        output: &crate::track::FrameOutput,
+        tracker: &Tracker,
+        image_size_px: (u32, u32),
+        geo: impl Fn(&TrackOutput) -> (Option<TrackGeo>, Option<f64>),
+        outbox: &Outbox,
+    ) {
+        self.image_size_px = Some(image_size_px);
+        self.candidates.clear();
+        self.candidates
+            .extend(output.tracks.iter().map(|t| Candidate {
+                id: t.id,
+                bbox: t.bbox,
+            }));
+        if let Some(gone) = self.selection.follow(&output.merges, |id| {
+            tracker.live_tracks().any(|t| t.id == id)
+        }) {
+            tracing::warn!(track = gone, "selected track removed: tracking stopped");
+            outbox.send(link::statustext(
+                Severity::Warning,
+                &format!("mgmot: track {gone} gone, tracking stopped"),
+            ));
+            send_idle_status(outbox);
+        }
+        self.answer_commands(outbox);
+        let Some(selected) = self.selection.selected() else {
+            return;
+        };
+        if self
+            .last_status
+            .is_some_and(|at| at.elapsed() < self.status_every)
+        {
+            return;
+        }
+        // A confirmed track of this frame, or (lost for now) the tracker's prediction.
+        let track = output
+            .tracks
+            .iter()
+            .find(|t| t.id == selected.track_id)
+            .copied()
+            .or_else(|| tracker.live_tracks().find(|t| t.id == selected.track_id));
+        let Some(t) = track else {
+            return;
+        };
+        let (w, h) = (f64::from(image_size_px.0), f64::from(image_size_px.1));
+        let (geo_now, range_m) = geo(&t);
+        let status = TrackingStatus {
+            mode: match selected.mode {
+                operator::Mode::Point => TrackingMode::Point,
+                operator::Mode::Rectangle => TrackingMode::Rectangle,
+            },
+            bbox_norm: [
+                (t.bbox.x / w) as f32,
+                (t.bbox.y / h) as f32,
+                (t.bbox.w / w) as f32,
+                (t.bbox.h / h) as f32,
+            ],
+            aspect: (w / h) as f32,
+            coasting: t.state != TrackState::Confirmed || t.detection_index.is_none(),
+            vel_std_mps: geo_now.and(t.world).map(|ws| {
+                let (vn, ve) = (ws.cov[(2, 2)], ws.cov[(3, 3)]);
+                ((vn + ve) / 2.0).max(0.0).sqrt()
+            }),
+            geo: geo_now,
+            range_m,
+        };
+        outbox.send(link::camera_tracking_image_status(Some(&status)));
+        outbox.send(link::camera_tracking_geo_status(Some(&status)));
+        self.last_status = Some(Instant::now());
+    }
+}
+
+/// "Not tracking" in both status messages, once, when a selection ends.
+fn send_idle_status(outbox: &Outbox) {
+    outbox.send(link::camera_tracking_image_status(None));
+    outbox.send(link::camera_tracking_geo_status(None));
 }

@@ -1,0 +1,824 @@
+//! `mgmot run` as a ground station sees it: the real `mgmot-sim` is the autopilot and the frame
+//! source, and this test is the GCS on the same UDP link. It selects a swimmer with
+//! MAV_CMD_CAMERA_TRACK_POINT and follows it through CAMERA_TRACKING_GEO_STATUS /
+//! CAMERA_TRACKING_IMAGE_STATUS, checks MAVLink 2 signing end to end, and watches the
+//! STATUSTEXT of a telemetry dropout.
+//!
+//! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
+//! `cargo build -p mgmot-sim`. Frames are made small (640x360) to keep the debug-build
+//! simulator quick; the detections are simulated at the same size.
+
+use mavlink_core::{
+    MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, SigningConfig, SigningData,
+};
+use mgmot::mavlink::dialect::*;
+use sha2::{Digest, Sha256};
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// Autopilot clock at sim time 0 (the scenarios' default `telemetry.boot_time_s`).
+const BOOT_TIME_S: f64 = 120.0;
+/// The GCS's system and component ids.
+const GCS: (u8, u8) = (255, 190);
+/// mgmot's system and component ids (the defaults).
+const MGMOT: (u8, u8) = (1, 191);
+/// Frame size for the simulator (and its detections).
+const SIZE: [&str; 4] = ["--width", "640", "--height", "360"];
+const KEY: [u8; 32] = [
+    0x4d, 0x47, 0x4d, 0x4f, 0x54, 0x2d, 0x6b, 0x65, 0x79, 0x2d, 0x66, 0x6f, 0x72, 0x2d, 0x74, 0x65,
+    0x73, 0x74, 0x73, 0x2d, 0x6f, 0x6e, 0x6c, 0x79, 0x2d, 0x30, 0x31, 0x32, 0x33, 0x34, 0x35, 0x36,
+];
+
+fn sim_bin() -> PathBuf {
+    if let Some(p) = std::env::var_os("MGMOT_SIM_BIN") {
+        return PathBuf::from(p);
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let status = Command::new(env!("CARGO"))
+        .args(["build", "-p", "mgmot-sim"])
+        .current_dir(root)
+        .status()
+        .expect("running cargo build -p mgmot-sim");
+    assert!(status.success(), "cargo build -p mgmot-sim failed");
+    root.join("target/debug/mgmot-sim")
+}
+
+/// A child process killed when the test ends, passed or not.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// One datagram mgmot sent.
+#[derive(Clone)]
+struct Sent {
+    bytes: Vec<u8>,
+    header: MavHeader,
+    msg: MavMessage,
+}
+
+/// The UDP link between the simulator and mgmot, with the test's GCS on it: forwards the
+/// simulator's datagrams to mgmot and mgmot's back, records what mgmot sends, and sends the
+/// GCS's commands to mgmot from the same socket (a `udpin` link answers its latest peer).
+struct Link {
+    sent: Arc<Mutex<Vec<Sent>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    to_mgmot: UdpSocket,
+    mgmot_port: u16,
+    listen_port: u16,
+    gcs_signing: SigningData,
+    wrong_signing: SigningData,
+}
+
+impl Link {
+    fn start(mgmot_port: u16) -> Link {
+        let up = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let down = UdpSocket::bind("127.0.0.1:0").unwrap();
+        up.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
+        down.set_read_timeout(Some(Duration::from_millis(1)))
+            .unwrap();
+        let listen_port = up.local_addr().unwrap().port();
+        let to_mgmot = down.try_clone().unwrap();
+        let sent = Arc::new(Mutex::new(Vec::new()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (log, s) = (sent.clone(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            let mut sim = None;
+            let mut buf = [0u8; 65536];
+            while !s.load(Ordering::Relaxed) {
+                if let Ok((n, from)) = up.recv_from(&mut buf) {
+                    sim = Some(from);
+                    let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
+                }
+                if let Ok(n) = down.recv(&mut buf) {
+                    if let Some(sim) = sim {
+                        let _ = up.send_to(&buf[..n], sim);
+                    }
+                    let mut reader = MavlinkReader::new(&buf[..n]);
+                    if let Ok((header, msg)) = reader.read_message::<MavMessage>(MavlinkVersion::V2)
+                    {
+                        log.lock().unwrap().push(Sent {
+                            bytes: buf[..n].to_vec(),
+                            header,
+                            msg,
+                        });
+                    }
+                }
+            }
+        });
+        Link {
+            sent,
+            stop,
+            thread: Some(thread),
+            to_mgmot,
+            mgmot_port,
+            listen_port,
+            gcs_signing: SigningData::from_config(SigningConfig::new(KEY, 0, true, false)),
+            wrong_signing: SigningData::from_config(SigningConfig::new([9; 32], 0, true, false)),
+        }
+    }
+
+    /// How many messages mgmot has sent so far (a position to wait from).
+    fn mark(&self) -> usize {
+        self.sent.lock().unwrap().len()
+    }
+
+    fn since(&self, from: usize) -> Vec<Sent> {
+        self.sent.lock().unwrap()[from..].to_vec()
+    }
+
+    /// The first message from position `from` on that `pred` accepts, waiting up to `limit`.
+    fn wait_for(
+        &self,
+        from: usize,
+        limit: Duration,
+        mut pred: impl FnMut(&MavMessage) -> bool,
+    ) -> Option<(usize, Sent)> {
+        let start = Instant::now();
+        let mut next = from;
+        while start.elapsed() < limit {
+            {
+                let sent = self.sent.lock().unwrap();
+                for (i, s) in sent.iter().enumerate().skip(next) {
+                    if pred(&s.msg) {
+                        return Some((i, s.clone()));
+                    }
+                }
+                next = sent.len();
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        None
+    }
+
+    /// Sends a message as the GCS; `Some(true)`: signed with the shared key, `Some(false)`:
+    /// signed with a wrong key, `None`: unsigned.
+    fn send(&self, msg: &MavMessage, signed: Option<bool>) {
+        let header = MavHeader {
+            system_id: u32::from(GCS.0),
+            component_id: GCS.1,
+            sequence: 0,
+        };
+        let signing = match signed {
+            Some(true) => Some(&self.gcs_signing),
+            Some(false) => Some(&self.wrong_signing),
+            None => None,
+        };
+        let mut buf = Vec::new();
+        mavlink_core::write_versioned_msg_signed(
+            &mut buf,
+            MavlinkVersion::V2,
+            header,
+            msg,
+            signing,
+        )
+        .unwrap();
+        self.to_mgmot
+            .send_to(&buf, ("127.0.0.1", self.mgmot_port))
+            .unwrap();
+    }
+
+    fn finish(mut self) -> Vec<Sent> {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+        std::mem::take(&mut *self.sent.lock().unwrap())
+    }
+}
+
+fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+struct Setup {
+    _tmp: tempfile::TempDir,
+    dir: PathBuf,
+    sim: PathBuf,
+    scenario: String,
+    config: PathBuf,
+    mgmot_port: u16,
+}
+
+/// Simulated detections and a configuration with `extra` TOML appended to `[mavlink]`
+/// (`mavlink_extra`) and after it (`extra`, whole tables).
+fn setup(scenario: &str, duration_s: f64, mavlink_extra: &str, extra: &str) -> Setup {
+    let sim = sim_bin();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().to_owned();
+    let out = Command::new(&sim)
+        .args(["detections", "--scenario", scenario, "--duration-s"])
+        .arg(duration_s.to_string())
+        .args(SIZE)
+        .arg("-o")
+        .arg(dir.join("dets.json"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mgmot_port = free_udp_port();
+    let config = dir.join("run.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[mavlink]\nconnection = \"udpin:127.0.0.1:{mgmot_port}\"\n{mavlink_extra}\n\
+             [frames]\nsource = \"sim\"\nsocket = \"{}\"\n\
+             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n{extra}\n",
+            dir.join("frames.sock").display(),
+            dir.join("dets.json").display()
+        ),
+    )
+    .unwrap();
+    Setup {
+        _tmp: tmp,
+        dir,
+        sim,
+        scenario: scenario.to_owned(),
+        config,
+        mgmot_port,
+    }
+}
+
+fn start_sim(s: &Setup, duration_s: f64, lockstep: bool, link: &Link) -> Proc {
+    Proc(
+        Command::new(&s.sim)
+            .args(["run", "--scenario", &s.scenario, "--duration-s"])
+            .arg(duration_s.to_string())
+            .args(SIZE)
+            .arg(if lockstep { "--lockstep" } else { "--realtime" })
+            .arg("--mavlink")
+            .arg(format!("udpout:127.0.0.1:{}", link.listen_port))
+            .arg("--frames")
+            .arg(format!("unix:{}", s.dir.join("frames.sock").display()))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+fn start_mgmot(s: &Setup) -> Proc {
+    let log = std::fs::File::create(s.dir.join("mgmot.log")).unwrap();
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_mgmot"))
+            .args(["run", "--config"])
+            .arg(&s.config)
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .unwrap(),
+    )
+}
+
+fn mgmot_log(s: &Setup) -> String {
+    std::fs::read_to_string(s.dir.join("mgmot.log")).unwrap_or_default()
+}
+
+/// SIGTERM, then waits for a clean exit.
+fn stop(p: &mut Proc) -> std::process::ExitStatus {
+    let kill = Command::new("kill")
+        .args(["-TERM", &p.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let start = Instant::now();
+    loop {
+        if let Some(status) = p.0.try_wait().unwrap() {
+            return status;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "mgmot did not stop"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// True swimmer positions (sim time in ms, lat, lon) from the detections' ground truth.
+fn swimmer_truth(dir: &Path) -> Vec<(i64, f64, f64)> {
+    let mut r = csv::Reader::from_path(dir.join("dets_gt/world.csv")).unwrap();
+    r.deserialize::<std::collections::HashMap<String, String>>()
+        .map(|row| row.unwrap())
+        .filter(|row| row["class"] == "swimmer")
+        .map(|row| {
+            (
+                (row["time_s"].parse::<f64>().unwrap() * 1000.0).round() as i64,
+                row["lat_deg"].parse().unwrap(),
+                row["lon_deg"].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+fn distance_m((lat1, lon1): (f64, f64), (lat2, lon2): (f64, f64)) -> f64 {
+    let dn = (lat1 - lat2) * 111_320.0;
+    let de = (lon1 - lon2) * 111_320.0 * lat1.to_radians().cos();
+    dn.hypot(de)
+}
+
+fn track_point(x: f32, y: f32) -> MavMessage {
+    MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        target_system: MGMOT.0,
+        target_component: MGMOT.1,
+        command: MavCmd::MAV_CMD_CAMERA_TRACK_POINT,
+        param1: x,
+        param2: y,
+        ..Default::default()
+    })
+}
+
+fn stop_tracking() -> MavMessage {
+    MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        target_system: MGMOT.0,
+        target_component: MGMOT.1,
+        command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+        ..Default::default()
+    })
+}
+
+fn is_ack_for(m: &MavMessage, command: MavCmd) -> bool {
+    matches!(m, MavMessage::COMMAND_ACK(a) if a.command == command
+        && (a.target_system, a.target_component) == GCS)
+}
+
+fn ack_result(s: &Sent) -> MavResult {
+    match &s.msg {
+        MavMessage::COMMAND_ACK(a) => a.result,
+        other => panic!("not an ack: {other:?}"),
+    }
+}
+
+/// A swimmer track mgmot reports as geolocated and matched in its frame, with its box well
+/// inside the image.
+fn geolocated_swimmer(m: &MavMessage) -> bool {
+    matches!(m, MavMessage::MGMOT_TRACK(t)
+        if t.flags.contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID)
+            && t.state == MgmotTrackState::MGMOT_TRACK_STATE_TRACKED
+            && t.object_class == MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER
+            && (0.1..0.9).contains(&(t.bbox_x + t.bbox_w / 2.0))
+            && (0.1..0.9).contains(&(t.bbox_y + t.bbox_h / 2.0)))
+}
+
+fn track_of(s: &Sent) -> MGMOT_TRACK_DATA {
+    match &s.msg {
+        MavMessage::MGMOT_TRACK(t) => t.clone(),
+        other => panic!("not a track: {other:?}"),
+    }
+}
+
+fn active(flags: CameraTrackingStatusFlags) -> bool {
+    flags.contains(CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE)
+}
+
+/// The latest MGMOT_TRACK of `track_id` before position `before`.
+fn latest_track(sent: &[Sent], before: usize, track_id: u32) -> Option<MGMOT_TRACK_DATA> {
+    sent[..before].iter().rev().find_map(|s| match &s.msg {
+        MavMessage::MGMOT_TRACK(t) if t.track_id == track_id => Some(t.clone()),
+        _ => None,
+    })
+}
+
+/// A point of the image at least 0.15 (of width / height) from every box of the tracks mgmot
+/// reported in the last `window` messages before `before`.
+fn empty_sea(sent: &[Sent], before: usize) -> (f32, f32) {
+    let boxes: Vec<[f32; 4]> = sent[before.saturating_sub(400)..before]
+        .iter()
+        .filter_map(|s| match &s.msg {
+            MavMessage::MGMOT_TRACK(t) => Some([t.bbox_x, t.bbox_y, t.bbox_w, t.bbox_h]),
+            _ => None,
+        })
+        .collect();
+    let clearance = |(x, y): (f32, f32)| {
+        boxes
+            .iter()
+            .map(|[bx, by, bw, bh]| {
+                let dx = (bx - x).max(x - (bx + bw)).max(0.0);
+                let dy = (by - y).max(y - (by + bh)).max(0.0);
+                dx.max(dy)
+            })
+            .fold(f32::INFINITY, f32::min)
+    };
+    let grid = (1..10).flat_map(|i| (1..10).map(move |j| (i as f32 / 10.0, j as f32 / 10.0)));
+    let best = grid
+        .max_by(|a, b| clearance(*a).total_cmp(&clearance(*b)))
+        .unwrap();
+    assert!(clearance(best) >= 0.15, "no empty sea among {boxes:?}");
+    best
+}
+
+#[test]
+fn operator_selects_a_swimmer_and_follows_it_until_stopped() {
+    let duration_s = 60.0;
+    let s = setup("calm_baseline", duration_s, "", "");
+    let link = Link::start(s.mgmot_port);
+    let _sim = start_sim(&s, duration_s, true, &link);
+    let mut mgmot = start_mgmot(&s);
+    let truth = swimmer_truth(&s.dir);
+    let limit = Duration::from_secs(120);
+
+    // A swimmer on the operator's screen: click the centre of its box.
+    let (_, seen) = link
+        .wait_for(0, limit, geolocated_swimmer)
+        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot_log(&s)));
+    let clicked = track_of(&seen);
+    let mark = link.mark();
+    link.send(
+        &track_point(
+            clicked.bbox_x + clicked.bbox_w / 2.0,
+            clicked.bbox_y + clicked.bbox_h / 2.0,
+        ),
+        None,
+    );
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_TRACK_POINT)
+        })
+        .expect("no COMMAND_ACK for TRACK_POINT");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(ack.header.component_id, MGMOT.1);
+
+    // Status of the selected swimmer, several times: on the true swimmer within a few metres,
+    // the same object as the clicked track, its box where the track's box is.
+    let mut geo_checked = 0;
+    let mut image_checked = 0;
+    let mut from = mark;
+    while geo_checked < 3 || image_checked < 3 {
+        let (i, status) = link
+            .wait_for(from, Duration::from_secs(30), |m| {
+                matches!(
+                    m,
+                    MavMessage::CAMERA_TRACKING_GEO_STATUS(_)
+                        | MavMessage::CAMERA_TRACKING_IMAGE_STATUS(_)
+                )
+            })
+            .expect("no tracking status after ACCEPTED");
+        from = i + 1;
+        let sent = link.since(0);
+        let track = latest_track(&sent, i, clicked.track_id)
+            .expect("the clicked track is no longer reported");
+        match &status.msg {
+            MavMessage::CAMERA_TRACKING_GEO_STATUS(g) => {
+                assert!(active(g.tracking_status), "{g:?}");
+                if g.tracking_status
+                    .contains(CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR)
+                {
+                    continue;
+                }
+                let p = (f64::from(g.lat) * 1e-7, f64::from(g.lon) * 1e-7);
+                let t_ms = ((track.time_usec as f64 / 1e6 - BOOT_TIME_S) * 1000.0).round() as i64;
+                let to_truth = truth
+                    .iter()
+                    .filter(|(ms, _, _)| (ms - t_ms).abs() <= 500)
+                    .map(|&(_, lat, lon)| distance_m(p, (lat, lon)))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    to_truth < 3.0,
+                    "GEO_STATUS {to_truth:.1} m from any swimmer: {g:?}"
+                );
+                let to_track = distance_m(
+                    p,
+                    (f64::from(track.lat) * 1e-7, f64::from(track.lon) * 1e-7),
+                );
+                assert!(
+                    to_track < 2.0,
+                    "GEO_STATUS {to_track:.1} m from the clicked track"
+                );
+                assert!(g.h_acc > 0.0 && g.h_acc < 10.0, "h_acc {}", g.h_acc);
+                assert!(g.dist > 20.0 && g.dist < 200.0, "dist {}", g.dist);
+                assert_eq!(g.vel_d, 0.0);
+                geo_checked += 1;
+            }
+            MavMessage::CAMERA_TRACKING_IMAGE_STATUS(im) => {
+                assert!(active(im.tracking_status), "{im:?}");
+                assert_eq!(
+                    im.tracking_mode,
+                    CameraTrackingMode::CAMERA_TRACKING_MODE_POINT
+                );
+                let margin = 0.02;
+                assert!(
+                    (track.bbox_x - margin..=track.bbox_x + track.bbox_w + margin)
+                        .contains(&im.point_x)
+                        && (track.bbox_y - margin..=track.bbox_y + track.bbox_h + margin)
+                            .contains(&im.point_y),
+                    "IMAGE_STATUS point ({}, {}) not on the track's box {track:?}",
+                    im.point_x,
+                    im.point_y
+                );
+                image_checked += 1;
+            }
+            _ => unreachable!(),
+        }
+    }
+
+    // A click on empty sea is refused; the selection stays.
+    let mark = link.mark();
+    let (x, y) = empty_sea(&link.since(0), mark);
+    link.send(&track_point(x, y), None);
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_TRACK_POINT)
+        })
+        .expect("no COMMAND_ACK for the empty-sea TRACK_POINT");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_FAILED);
+
+    // Stop: accepted, one IDLE status of each kind, then silence.
+    let mark = link.mark();
+    link.send(&stop_tracking(), None);
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_STOP_TRACKING)
+        })
+        .expect("no COMMAND_ACK for STOP_TRACKING");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_ACCEPTED);
+    let (idle_at, _) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            matches!(m, MavMessage::CAMERA_TRACKING_IMAGE_STATUS(i)
+                if i.tracking_status.is_empty()
+                    && i.tracking_mode == CameraTrackingMode::CAMERA_TRACKING_MODE_NONE)
+        })
+        .expect("no IDLE image status after STOP_TRACKING");
+    let frames_before = link
+        .since(0)
+        .iter()
+        .filter(|s| matches!(s.msg, MavMessage::MGMOT_TRACK(_)))
+        .count();
+    std::thread::sleep(Duration::from_secs(2));
+    let after = link.since(idle_at + 1);
+    let frames_after = link
+        .since(0)
+        .iter()
+        .filter(|s| matches!(s.msg, MavMessage::MGMOT_TRACK(_)))
+        .count();
+    assert!(
+        frames_after > frames_before,
+        "mgmot stopped producing tracks"
+    );
+    let active_after = after.iter().any(|s| match &s.msg {
+        MavMessage::CAMERA_TRACKING_IMAGE_STATUS(i) => active(i.tracking_status),
+        MavMessage::CAMERA_TRACKING_GEO_STATUS(g) => active(g.tracking_status),
+        _ => false,
+    });
+    assert!(
+        !active_after,
+        "tracking status still active after STOP_TRACKING"
+    );
+
+    // A rectangle round a track's box, as COMMAND_INT: accepted, reported as a rectangle.
+    let (_, seen) = link
+        .wait_for(link.mark(), limit, geolocated_swimmer)
+        .expect("no swimmer to draw a rectangle round");
+    let t = track_of(&seen);
+    let mark = link.mark();
+    link.send(
+        &MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+            target_system: MGMOT.0,
+            target_component: MGMOT.1,
+            command: MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE,
+            param1: t.bbox_x - 0.01,
+            param2: t.bbox_y - 0.01,
+            param3: t.bbox_x + t.bbox_w + 0.01,
+            param4: t.bbox_y + t.bbox_h + 0.01,
+            ..Default::default()
+        }),
+        None,
+    );
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_TRACK_RECTANGLE)
+        })
+        .expect("no COMMAND_ACK for TRACK_RECTANGLE");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_ACCEPTED);
+    link.wait_for(mark, Duration::from_secs(10), |m| {
+        matches!(m, MavMessage::CAMERA_TRACKING_IMAGE_STATUS(i)
+            if active(i.tracking_status)
+                && i.tracking_mode == CameraTrackingMode::CAMERA_TRACKING_MODE_RECTANGLE
+                && i.rec_bottom_x > i.rec_top_x)
+    })
+    .expect("no rectangle status after TRACK_RECTANGLE");
+
+    let status = stop(&mut mgmot);
+    let _ = link.finish();
+    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+}
+
+/// The 6-byte signature of a signed MAVLink 2 frame, recomputed from the key (SHA-256 of the
+/// key followed by the frame up to the signature), as the MAVLink signing spec defines it.
+fn expected_signature(key: &[u8; 32], frame: &[u8]) -> [u8; 6] {
+    let signed_len = frame.len() - 6;
+    let digest = Sha256::new()
+        .chain_update(key)
+        .chain_update(&frame[..signed_len])
+        .finalize();
+    let mut sig = [0u8; 6];
+    sig.copy_from_slice(&digest[..6]);
+    sig
+}
+
+#[test]
+fn signing_signs_everything_and_refuses_unsigned_commands_only() {
+    let duration_s = 60.0;
+    let key_hex: String = KEY.iter().map(|b| format!("{b:02x}")).collect();
+    let s = setup(
+        "calm_baseline",
+        duration_s,
+        &format!("[mavlink.signing]\nkey_hex = \"{key_hex}\"\nlink_id = 5\n"),
+        "",
+    );
+    let link = Link::start(s.mgmot_port);
+    let _sim = start_sim(&s, duration_s, true, &link);
+    let mut mgmot = start_mgmot(&s);
+
+    // The simulator's telemetry is unsigned, and still geolocates tracks.
+    let (_, seen) = link
+        .wait_for(0, Duration::from_secs(120), geolocated_swimmer)
+        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot_log(&s)));
+    let t = track_of(&seen);
+    let (x, y) = (t.bbox_x + t.bbox_w / 2.0, t.bbox_y + t.bbox_h / 2.0);
+
+    // Unsigned command: refused with DENIED, nothing tracked.
+    let mark = link.mark();
+    link.send(&track_point(x, y), None);
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_TRACK_POINT)
+        })
+        .expect("no COMMAND_ACK for the unsigned command");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_DENIED);
+
+    // Signed with the wrong key: dropped by the link, no answer at all.
+    let mark = link.mark();
+    link.send(&track_point(x, y), Some(false));
+    std::thread::sleep(Duration::from_millis(1500));
+    let answered = link.since(mark).iter().any(|s| {
+        is_ack_for(&s.msg, MavCmd::MAV_CMD_CAMERA_TRACK_POINT)
+            || matches!(s.msg, MavMessage::CAMERA_TRACKING_IMAGE_STATUS(_))
+    });
+    assert!(!answered, "a command with a forged signature was answered");
+
+    // Signed with the shared key: accepted and tracked.
+    let (_, seen) = link
+        .wait_for(link.mark(), Duration::from_secs(60), geolocated_swimmer)
+        .expect("no swimmer for the signed command");
+    let t = track_of(&seen);
+    let mark = link.mark();
+    link.send(
+        &track_point(t.bbox_x + t.bbox_w / 2.0, t.bbox_y + t.bbox_h / 2.0),
+        Some(true),
+    );
+    let (_, ack) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            is_ack_for(m, MavCmd::MAV_CMD_CAMERA_TRACK_POINT)
+        })
+        .expect("no COMMAND_ACK for the signed command");
+    assert_eq!(ack_result(&ack), MavResult::MAV_RESULT_ACCEPTED);
+    link.wait_for(
+        mark,
+        Duration::from_secs(10),
+        |m| matches!(m, MavMessage::CAMERA_TRACKING_GEO_STATUS(g) if active(g.tracking_status)),
+    )
+    .expect("no tracking status after the signed command");
+
+    let status = stop(&mut mgmot);
+    let sent = link.finish();
+    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+
+    // Every frame mgmot sent is signed with the key and link id 5; timestamps (10 us units
+    // since 2015-01-01) increase and are near now.
+    let now_10us = (SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_micros()
+        - 1_420_070_400_000_000)
+        / 10;
+    let mut last_timestamp = 0u64;
+    assert!(sent.len() > 20, "only {} messages", sent.len());
+    for s in &sent {
+        let mut reader = MavlinkReader::new(&s.bytes[..]);
+        let raw = reader
+            .read_raw_message::<MavMessage>(MavlinkVersion::V2)
+            .unwrap();
+        let MAVLinkMessageRaw::V2(v2) = raw else {
+            panic!("MAVLink 1 frame from mgmot")
+        };
+        assert_eq!(v2.incompatibility_flags() & 1, 1, "unsigned {:?}", s.msg);
+        assert_eq!(v2.signature_link_id(), 5);
+        assert_eq!(
+            v2.signature_value(),
+            expected_signature(&KEY, &s.bytes),
+            "bad signature on {:?}",
+            s.msg
+        );
+        let ts = v2.signature_timestamp();
+        assert!(ts > last_timestamp, "timestamp not increasing");
+        last_timestamp = ts;
+        assert!(
+            (ts as i128 - now_10us as i128).abs() < 100 * 60 * 10_000,
+            "timestamp {ts} far from now {now_10us}"
+        );
+    }
+}
+
+#[test]
+fn telemetry_dropout_is_announced_once_and_tracking_goes_on() {
+    // The shipped telemetry_dropout scenario, with its 5 s dropout moved to t = 6 s so the
+    // run is short; in real time, as telemetry loss is a matter of wall-clock time.
+    let shipped = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/sim/scenarios/telemetry_dropout.toml"
+    ))
+    .unwrap();
+    assert!(shipped.contains("dropouts = [[20.0, 5.0]]"));
+    let tmp = tempfile::tempdir().unwrap();
+    let scenario = tmp.path().join("dropout_early.toml");
+    std::fs::write(
+        &scenario,
+        shipped.replace("dropouts = [[20.0, 5.0]]", "dropouts = [[6.0, 5.0]]"),
+    )
+    .unwrap();
+    let duration_s = 16.0;
+    let s = setup(
+        scenario.to_str().unwrap(),
+        duration_s,
+        "",
+        "[telemetry]\nlost_after_ms = 1500.0\n",
+    );
+    let link = Link::start(s.mgmot_port);
+    let mut sim = start_sim(&s, duration_s, false, &link);
+    let mut mgmot = start_mgmot(&s);
+    let start = Instant::now();
+    while sim.0.try_wait().unwrap().is_none() {
+        assert!(
+            start.elapsed() < Duration::from_secs(90),
+            "the simulator did not finish"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let status = stop(&mut mgmot);
+    let sent = link.finish();
+    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+
+    let texts: Vec<(usize, String)> = sent
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| match &s.msg {
+            MavMessage::STATUSTEXT(t) => Some((i, t.text.to_str().unwrap().to_owned())),
+            _ => None,
+        })
+        .filter(|(_, t)| t.contains("telemetry"))
+        .collect();
+    let only_texts: Vec<&str> = texts.iter().map(|(_, t)| t.as_str()).collect();
+    assert_eq!(
+        only_texts,
+        [
+            "mgmot: no telemetry, geolocation invalid",
+            "mgmot: telemetry ok"
+        ],
+        "mgmot: {}",
+        mgmot_log(&s)
+    );
+    let (lost_at, back_at) = (texts[0].0, texts[1].0);
+    let geo_valid = |range: std::ops::Range<usize>| -> (usize, usize) {
+        sent[range]
+            .iter()
+            .fold((0, 0), |(valid, invalid), s| match &s.msg {
+                MavMessage::MGMOT_TRACK(t) => {
+                    if t.flags
+                        .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID)
+                    {
+                        (valid + 1, invalid)
+                    } else {
+                        (valid, invalid + 1)
+                    }
+                }
+                _ => (valid, invalid),
+            })
+    };
+    // Geolocated before the dropout and after it; tracked in the image during it, flagged
+    // "geolocation invalid".
+    assert!(
+        geo_valid(0..lost_at).0 > 0,
+        "no geolocated track before the dropout"
+    );
+    let (_, invalid) = geo_valid(lost_at..back_at);
+    assert!(invalid > 0, "no image-only track during the dropout");
+    assert!(
+        geo_valid(back_at..sent.len()).0 > 0,
+        "no geolocated track after it"
+    );
+}
