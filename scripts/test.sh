@@ -41,4 +41,7 @@ echo "== cargo test"
 # (building it separately with `cargo build -p mgmot-sim` would re-resolve features and
 # recompile its dependencies).
 export MGMOT_SIM_BIN="$PWD/target/debug/mgmot-sim"
+# The loopback tests start a simulator and mgmot each; one test at a time keeps them within
+# their real-time budgets on a 2-core machine.
+export RUST_TEST_THREADS=1
 cargo test --workspace

@@ -304,6 +304,22 @@ pub struct OnnxDetectorConfig {
     /// index `i` becomes track class id `i + 1`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub class_names: Option<Vec<String>>,
+    /// Run the model on overlapping tiles at native resolution (plus the whole frame, for
+    /// objects larger than a tile), merged by NMS: swimmers of 10-20 px in a 1280x720 frame
+    /// shrink to a few pixels when the whole frame is letterboxed to a 320 px input. Costs one
+    /// model run per tile (1280x720 at 320 px: 12 tiles + 1).
+    #[serde(default)]
+    pub tile: bool,
+    /// Tile side (px of the frame); absent: the model's input size (native resolution).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile_size_px: Option<u32>,
+    /// Overlap between neighbouring tiles (px); at least the largest object to keep whole.
+    #[serde(default = "default_tile_overlap_px")]
+    pub tile_overlap_px: u32,
+}
+
+fn default_tile_overlap_px() -> u32 {
+    64
 }
 
 impl OnnxDetectorConfig {
@@ -320,6 +336,11 @@ impl OnnxDetectorConfig {
         c.larger_box_iou = (self.larger_box_iou < 1.0).then_some(self.larger_box_iou);
         c.max_detections = self.max_detections;
         c.class_names = self.class_names.clone();
+        c.tiling = self.tile.then_some(crate::detect::TilingConfig {
+            tile_px: self.tile_size_px,
+            overlap_px: self.tile_overlap_px,
+            include_full_frame: true,
+        });
         c
     }
 }
@@ -551,9 +572,21 @@ impl Config {
             larger_box_iou,
             max_detections,
             class_names,
+            tile_size_px,
+            tile_overlap_px,
             ..
         }) = &self.detector
         {
+            if let Some(t) = tile_size_px {
+                if *t < 32 {
+                    bad("detector.tile_size_px", format!("must be >= 32, got {t}"));
+                } else if tile_overlap_px >= t {
+                    bad(
+                        "detector.tile_overlap_px",
+                        format!("must be smaller than tile_size_px ({t}), got {tile_overlap_px}"),
+                    );
+                }
+            }
             if model.as_os_str().is_empty() {
                 bad("detector.model", "must name the ONNX model file".into());
             }
@@ -858,6 +891,33 @@ class_names = ["swimmer", "boat"]
             DetectorConfig::Onnx(o) => o.settings(),
             other => panic!("not the ONNX detector: {other:?}"),
         }
+    }
+
+    #[test]
+    fn onnx_detector_tiling_keys() {
+        let c = Config::parse(&ONNX.replace(
+            "kind = \"onnx\"",
+            "kind = \"onnx\"\ntile = true\ntile_size_px = 640\ntile_overlap_px = 96",
+        ))
+        .unwrap();
+        c.validate().unwrap();
+        let t = onnx_settings(&c).tiling.unwrap();
+        assert_eq!(
+            (t.tile_px, t.overlap_px, t.include_full_frame),
+            (Some(640), 96, true)
+        );
+        assert_eq!(onnx_settings(&Config::parse(ONNX).unwrap()).tiling, None);
+        let keys: Vec<String> = Config::parse(&ONNX.replace(
+            "kind = \"onnx\"",
+            "kind = \"onnx\"\ntile = true\ntile_size_px = 100\ntile_overlap_px = 100",
+        ))
+        .unwrap()
+        .validate()
+        .unwrap_err()
+        .into_iter()
+        .map(|p| p.key)
+        .collect();
+        assert_eq!(keys, ["detector.tile_overlap_px"]);
     }
 
     #[test]

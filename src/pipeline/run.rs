@@ -359,6 +359,8 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
             let mut last_heartbeat: Option<Instant> = None;
             let mut last_timesync: Option<Instant> = None;
             let mut telemetry_ok: Option<bool> = None;
+            // The companion clock is CLOCK_MONOTONIC (time since boot): start-up is now, not 0.
+            let started = clock.now();
             loop {
                 tokio::select! {
                     _ = shutdown.recv() => break,
@@ -380,7 +382,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                 let ok = telemetry
                     .lock()
                     .ok()
-                    .map(|t| t.last_position_at.unwrap_or(CompanionTimeUs(0)))
+                    .map(|t| t.last_position_at.unwrap_or(started))
                     .is_some_and(|at| now.0.saturating_sub(at.0) <= lost_after_us);
                 if telemetry_ok != Some(ok) {
                     let (severity, text) = if ok {
