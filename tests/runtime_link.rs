@@ -279,6 +279,8 @@ fn start_mgmot(s: &Setup) -> Proc {
         Command::new(env!("CARGO_BIN_EXE_mgmot"))
             .args(["run", "--config"])
             .arg(&s.config)
+            .arg("--stats-json")
+            .arg(s.dir.join("stats.json"))
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
@@ -830,5 +832,16 @@ fn telemetry_dropout_is_announced_once_and_tracking_goes_on() {
     assert!(
         geo_valid(back_at..sent.len()).0 > 0,
         "no geolocated track after it"
+    );
+    // In real time the capture stamps map onto the companion clock (TIMESYNC), so frame age
+    // and end-to-end latency are measured, and the latter once per geolocated message at most.
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(s.dir.join("stats.json")).unwrap()).unwrap();
+    let count = |stage: &str| stats["latency"][stage]["count"].as_u64().unwrap_or(0);
+    assert!(
+        count("frame_age") > 0
+            && count("end_to_end") > 0
+            && count("end_to_end") <= stats["track_messages"].as_u64().unwrap_or(0),
+        "{stats}"
     );
 }

@@ -501,28 +501,21 @@ fn calm_baseline_heartbeat_tracks_and_geolocation_error() {
         "every queued MGMOT_TRACK reached the tap: {}",
         o.stats
     );
-    // End to end is recorded for the messages whose capture time mapped onto the companion
-    // clock (once the autopilot clock is known), so at most one per message.
-    let e2e = &o.stats["latency"]["end_to_end"];
+    // Frame age and end to end are measured from the capture stamp, on the autopilot clock,
+    // mapped onto the companion clock. In lockstep the simulator's clock runs at whatever
+    // speed mgmot reads frames, not in real time, so the mapping (from the TIMESYNC with the
+    // shortest round trip) can put a capture in the future; such samples are skipped, and how
+    // many remain depends on the machine's load. Here: only that the counts are consistent.
+    // The real-time test in tests/runtime_link.rs requires them.
+    let count = |stage: &str| o.stats["latency"][stage]["count"].as_u64().unwrap_or(0);
     assert!(
-        e2e["count"].as_u64().is_some_and(|n| n >= 1)
-            && e2e["count"].as_u64() <= o.stats["track_messages"].as_u64(),
+        count("end_to_end") <= o.stats["track_messages"].as_u64().unwrap_or(0)
+            && count("frame_age") <= o.stats["frames_processed"].as_u64().unwrap_or(0),
         "{}",
         o.stats
     );
-    for stage in [
-        "frame_age",
-        "detect",
-        "pose_geolocate",
-        "track",
-        "encode",
-        "processing",
-    ] {
-        assert!(
-            o.stats["latency"][stage]["count"].as_u64() > Some(0),
-            "no {stage} latency in {}",
-            o.stats
-        );
+    for stage in ["detect", "pose_geolocate", "track", "encode", "processing"] {
+        assert!(count(stage) > 0, "no {stage} latency in {}", o.stats);
     }
 }
 

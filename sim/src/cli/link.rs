@@ -9,8 +9,8 @@ use mgmot_sim::telemetry::{Autopilot, Scheduler};
 use mgmot_sim::world::World;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
 
 /// Queue between the run loop and the link: about 2 s of telemetry at default rates. When
 /// the link stalls, newer messages are dropped (and counted) rather than blocking the sim.
@@ -25,17 +25,32 @@ const COMP_AUTOPILOT: u8 = 1;
 const COMP_GIMBAL: u8 = 154;
 
 /// Sim time shared with the receive thread (f64 bits), so replies carry the current time.
+///
+/// In real time the autopilot's clock keeps running between the run loop's events (and when
+/// the loop falls behind), so a TIMESYNC answer gives the wall-clock sim time, as a real
+/// autopilot would; in lockstep it gives the time of the last event.
 #[derive(Debug, Default)]
-pub struct SimClock(AtomicU64);
+pub struct SimClock {
+    last_event_s: AtomicU64,
+    realtime_start: OnceLock<Instant>,
+}
 
 impl SimClock {
-    /// Sets the current sim time.
+    /// Sets the time of the event being handled.
     pub fn set(&self, t_s: f64) {
-        self.0.store(t_s.to_bits(), Ordering::Relaxed);
+        self.last_event_s.store(t_s.to_bits(), Ordering::Relaxed);
+    }
+    /// Marks sim time 0 as `start` on the wall clock (real-time runs).
+    pub fn start_realtime(&self, start: Instant) {
+        let _ = self.realtime_start.set(start);
     }
     /// The current sim time.
     pub fn get(&self) -> f64 {
-        f64::from_bits(self.0.load(Ordering::Relaxed))
+        let event = f64::from_bits(self.last_event_s.load(Ordering::Relaxed));
+        match self.realtime_start.get() {
+            Some(start) => event.max(start.elapsed().as_secs_f64()),
+            None => event,
+        }
     }
 }
 
@@ -140,8 +155,8 @@ fn link_thread(
             Err(e) => {
                 tracing::warn!(%address, error = %e, "cannot open MAVLink link; retrying in 1 s");
                 // Keep draining so the run loop never blocks on a dead link.
-                let deadline = std::time::Instant::now() + RETRY;
-                while std::time::Instant::now() < deadline {
+                let deadline = Instant::now() + RETRY;
+                while Instant::now() < deadline {
                     match rx.recv_timeout(Duration::from_millis(100)) {
                         Err(RecvTimeoutError::Disconnected) => return,
                         _ => continue,

@@ -99,6 +99,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut frames_sent, mut frames_dropped) = (0u64, 0u64);
     let mut k = 0u64;
     let start = Instant::now();
+    if !lockstep {
+        clock.start_realtime(start);
+    }
     tracing::info!(
         scenario = %world.scenario.name,
         seed = world.seed,
