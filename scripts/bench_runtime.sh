@@ -19,6 +19,8 @@
 # `camera_time_offset_ms` and `telemetry_latency_ms` faults are zeroed for the benchmark, since
 # they deliberately falsify exactly those timestamps; everything else (including the camera's
 # 40 ms capture-to-delivery latency, which end to end includes) is the shipped scenario.
+# `delivered_to_socket` starts instead when the frame reached mgmot's capture thread: mgmot's
+# own latency, without the simulator's rendering, its simulated camera latency and its lag.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -198,7 +200,7 @@ print(f"frames: {s['frames_captured']} captured, {s['frames_processed']} process
 print(f"sustained rate: {fps:.1f} frames/s processed (source: 30 frames/s)")
 print("latency (ms)         p50     p95     p99     max    mean  share of 33.3 ms frame time")
 for name, st in lat.items():
-    share = f"{100 * st['mean_us'] / frame_us:5.1f} %" if name not in ("frame_age", "end_to_end", "send") else ""
+    share = f"{100 * st['mean_us'] / frame_us:5.1f} %" if name not in ("frame_age", "slot_wait", "end_to_end", "delivered_to_socket", "send") else ""
     print(f"  {name:16s} {ms(st['p50_us']):>7s} {ms(st['p95_us']):>7s} {ms(st['p99_us']):>7s} {ms(st['max_us']):>7s} {ms(st['mean_us']):>7s}  {share}")
 if "processing" in lat:
     inference = lat.get("detect_inference", {}).get("mean_us", 0) if detector == "onnx" else 0
@@ -214,6 +216,14 @@ if rows:
         first, mid, last = r[0], r[len(r) // 2], r[-1]
         print(f"RSS: {first[1] / 1024:.1f} MiB at {first[0]} s, {mid[1] / 1024:.1f} MiB at {mid[0]} s, "
               f"{last[1] / 1024:.1f} MiB at {last[0]} s (max {max(x[1] for x in r) / 1024:.1f} MiB)")
+        # Growth: least-squares slope over the run after its first minute (warm-up: the
+        # allocator's arenas, ONNX Runtime's buffers and the tracker's first tracks).
+        w = [x for x in r if x[0] >= 60] or r
+        if len(w) >= 3:
+            mt = sum(x[0] for x in w) / len(w); mr = sum(x[1] for x in w) / len(w)
+            slope = sum((x[0] - mt) * (x[1] - mr) for x in w) / max(1e-9, sum((x[0] - mt) ** 2 for x in w))
+            print(f"RSS slope after the first minute: {slope * 60 / 1024:+.2f} MiB/min "
+                  f"(min {min(x[1] for x in w) / 1024:.1f}, max {max(x[1] for x in w) / 1024:.1f} MiB)")
         loads = [x[2] for x in r]
         print(f"load average (1 min): {loads[0]:.2f} at start, {loads[len(loads) // 2]:.2f} middle, "
               f"{loads[-1]:.2f} end, mean {sum(loads) / len(loads):.2f} (2 cores)")

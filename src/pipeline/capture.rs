@@ -10,6 +10,7 @@ use crate::camera::{
     SimSocketSource, V4l2Settings, V4l2Source,
 };
 use crate::config::FramesConfig;
+use crate::telemetry::CompanionTimeUs;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -17,6 +18,16 @@ use std::time::{Duration, Instant};
 
 /// Longest single sleep of a reconnect wait, so a shutdown is noticed within this.
 const WAIT_SLICE: Duration = Duration::from_millis(50);
+
+/// A frame as the capture thread hands it over, stamped when its source delivered it (read
+/// and decoded), so the pipeline's own latency can be told from the source's.
+#[derive(Debug)]
+pub(super) struct Delivered {
+    /// The frame.
+    pub frame: Frame,
+    /// When the source delivered it (companion clock).
+    pub at: CompanionTimeUs,
+}
 
 /// Why a capture loop returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -34,7 +45,7 @@ pub(super) enum CaptureEnd {
 /// runtime keeps its link up and retries).
 pub(super) fn start(
     frames: &FramesConfig,
-    writer: SlotWriter<Frame>,
+    writer: SlotWriter<Delivered>,
     shutdown: Shutdown,
     captured: Arc<AtomicU64>,
     mut report: impl FnMut(CameraStatus) + Send + 'static,
@@ -47,7 +58,12 @@ pub(super) fn start(
     };
     let stop = shutdown.clone();
     let mut wait = move |d: Duration| wait_unless(&stop, d);
-    let deliver = move |f: Frame| writer.put(f);
+    let deliver = move |frame: Frame| {
+        writer.put(Delivered {
+            frame,
+            at: CompanionTimeUs::now(),
+        })
+    };
     let stop = move || shutdown.is_shutdown();
     let thread = std::thread::Builder::new().name("capture".into());
     let spawned = match frames.clone() {
@@ -248,7 +264,6 @@ pub(super) fn capture_loop<S: FrameSource>(
 mod tests {
     use super::*;
     use crate::camera::{CaptureTime, SimFramingError};
-    use crate::telemetry::CompanionTimeUs;
     use std::collections::VecDeque;
     use std::path::PathBuf;
 

@@ -30,6 +30,9 @@ pub enum Stage {
     /// transfer and the wait in the newest-frame slot. Needs the capture time on the
     /// companion clock (for simulator frames: once the autopilot clock is mapped).
     FrameAge,
+    /// Delivered by the frame source to the capture thread -> taken by the inference thread:
+    /// the wait in the newest-frame slot.
+    SlotWait,
     /// The detector call (pre-processing, model, post-processing).
     Detect,
     /// The model run alone, when the detector reports it.
@@ -44,14 +47,18 @@ pub enum Stage {
     Processing,
     /// Queued -> handed to the socket (the link's sender task).
     Send,
+    /// Delivered by the frame source -> MGMOT_TRACK handed to the socket, one value per
+    /// message: mgmot's own latency, whatever the source's.
+    DeliveredToSocket,
     /// Capture timestamp -> MGMOT_TRACK handed to the socket, one value per message.
     EndToEnd,
 }
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 11] = [
         Stage::FrameAge,
+        Stage::SlotWait,
         Stage::Detect,
         Stage::DetectInference,
         Stage::PoseGeolocate,
@@ -59,6 +66,7 @@ impl Stage {
         Stage::Encode,
         Stage::Processing,
         Stage::Send,
+        Stage::DeliveredToSocket,
         Stage::EndToEnd,
     ];
 
@@ -66,6 +74,7 @@ impl Stage {
     pub fn name(self) -> &'static str {
         match self {
             Stage::FrameAge => "frame_age",
+            Stage::SlotWait => "slot_wait",
             Stage::Detect => "detect",
             Stage::DetectInference => "detect_inference",
             Stage::PoseGeolocate => "pose_geolocate",
@@ -73,6 +82,7 @@ impl Stage {
             Stage::Encode => "encode",
             Stage::Processing => "processing",
             Stage::Send => "send",
+            Stage::DeliveredToSocket => "delivered_to_socket",
             Stage::EndToEnd => "end_to_end",
         }
     }

@@ -2,10 +2,11 @@
 //! (detector -> pose -> geolocation -> tracker) and the track outputs, stopped by one
 //! [`Shutdown`].
 
+use super::capture::Delivered;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator::{self, Candidate, CommandResult, Outcome, Selection};
 use super::{newest_slot, Detector, OnnxDetector, ReplayDetector, Shutdown, SlotReader, Taken};
-use crate::camera::{CameraStatus, CaptureTime, Frame};
+use crate::camera::{CameraStatus, CaptureTime};
 use crate::config::{Config, DetectorConfig};
 use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator};
 use crate::mavlink::{
@@ -114,8 +115,19 @@ impl Monotonic {
 #[derive(Debug)]
 struct Outgoing {
     message: MavMessage,
-    /// Companion times of the frame's capture (when known) and of queueing.
-    timing: Option<(Option<CompanionTimeUs>, CompanionTimeUs)>,
+    /// When the frame of a track message was captured, delivered and its message queued.
+    timing: Option<FrameTiming>,
+}
+
+/// Companion times of a track message's frame, for the latency histograms.
+#[derive(Debug, Clone, Copy)]
+struct FrameTiming {
+    /// The capture (exposure) time, when it maps onto the companion clock.
+    captured: Option<CompanionTimeUs>,
+    /// When the frame source delivered the frame to the capture thread.
+    delivered: CompanionTimeUs,
+    /// When the message was queued for the link.
+    queued: CompanionTimeUs,
 }
 
 /// Queues a message for the link, counting it when the queue is full.
@@ -133,17 +145,12 @@ impl Outbox {
         });
     }
 
-    /// Queues a track message of a frame captured at `captured`, queued at `queued`: the
-    /// sender records capture -> socket (end to end) and queued -> socket.
-    fn send_track(
-        &self,
-        m: MavMessage,
-        captured: Option<CompanionTimeUs>,
-        queued: CompanionTimeUs,
-    ) {
+    /// Queues a track message with its frame's times: the sender records capture -> socket
+    /// (end to end), delivery -> socket and queued -> socket.
+    fn send_track(&self, m: MavMessage, timing: FrameTiming) {
         self.queue(Outgoing {
             message: m,
-            timing: Some((captured, queued)),
+            timing: Some(timing),
         });
     }
 
@@ -210,11 +217,12 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
             while let Some(out) = out_rx.recv().await {
                 if let Err(e) = conn.send(&header, &out.message).await {
                     tracing::debug!(error = %e, "MAVLink send failed");
-                } else if let Some((captured, queued)) = out.timing {
+                } else if let Some(t) = out.timing {
                     let now = clock.now();
                     if let Ok(mut l) = latency.lock() {
-                        l.record_between_us(Stage::Send, queued.0, now.0);
-                        if let Some(c) = captured {
+                        l.record_between_us(Stage::Send, t.queued.0, now.0);
+                        l.record_between_us(Stage::DeliveredToSocket, t.delivered.0, now.0);
+                        if let Some(c) = t.captured {
                             l.record_between_us(Stage::EndToEnd, c.0, now.0);
                         }
                     }
@@ -414,7 +422,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     };
     let tracker =
         Tracker::new(config.tracker.clone()).map_err(|e| PipelineError::Tracker(e.to_string()))?;
-    let (writer, reader) = newest_slot::<Frame>();
+    let (writer, reader) = newest_slot::<Delivered>();
     let captured = Arc::new(AtomicU64::new(0));
     let capture = {
         let outbox = outbox.clone();
@@ -480,7 +488,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
 fn infer(
     config: &Config,
     clock: Monotonic,
-    reader: SlotReader<Frame>,
+    reader: SlotReader<Delivered>,
     mut detector: Box<dyn Detector>,
     mut tracker: Tracker,
     telemetry: &Mutex<Telemetry>,
@@ -515,8 +523,11 @@ fn infer(
             );
             last_log = Instant::now();
         }
-        let frame = match reader.take(Duration::from_millis(100)) {
-            Taken::Value(f) => f,
+        let Delivered {
+            frame,
+            at: delivered,
+        } = match reader.take(Duration::from_millis(100)) {
+            Taken::Value(d) => d,
             Taken::Timeout => {
                 // No frame: commands are still answered, against the last frame's tracks.
                 operator.answer_commands(outbox);
@@ -680,7 +691,14 @@ fn infer(
                 tracked: t.detection_index.is_some(),
                 geo,
             };
-            outbox.send_track(link::mgmot_track(&report), captured_at, clock.now());
+            outbox.send_track(
+                link::mgmot_track(&report),
+                FrameTiming {
+                    captured: captured_at,
+                    delivered,
+                    queued: clock.now(),
+                },
+            );
             stats.track_messages += 1;
             if config.outputs.target_absolute {
                 if let Some(m) = link::target_absolute(&report) {
@@ -711,6 +729,7 @@ fn infer(
             if let Some(c) = captured_at {
                 l.record_between_us(Stage::FrameAge, c.0, taken_at.0);
             }
+            l.record_between_us(Stage::SlotWait, delivered.0, taken_at.0);
             l.record(Stage::Detect, detected - started);
             if let Some(t) = detector.last_timings() {
                 l.record(Stage::DetectInference, t.inference);
@@ -739,7 +758,7 @@ fn log_window(
     latency: &Mutex<Latency>,
     stats: &RunStats,
     window_start: &mut (u64, u64),
-    reader: &SlotReader<Frame>,
+    reader: &SlotReader<Delivered>,
     elapsed: Duration,
 ) {
     let Ok(mut l) = latency.lock() else { return };
