@@ -9,26 +9,15 @@
 //!
 //! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here.
 
+mod common;
+
+use common::sim_bin;
 use mavlink_core::{MavlinkReader, MavlinkVersion};
 use mgmot::mavlink::dialect::MavMessage;
 use std::net::UdpSocket;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn sim_bin() -> PathBuf {
-    if let Some(p) = std::env::var_os("MGMOT_SIM_BIN") {
-        return PathBuf::from(p);
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let status = Command::new(env!("CARGO"))
-        .args(["build", "-p", "mgmot-sim"])
-        .current_dir(root)
-        .status()
-        .expect("running cargo build -p mgmot-sim");
-    assert!(status.success(), "cargo build -p mgmot-sim failed");
-    root.join("target/debug/mgmot-sim")
-}
 
 fn sim(args: &[&str], out: &Path) {
     let o = Command::new(sim_bin())

@@ -8,20 +8,18 @@
 //! `cargo build -p mgmot-sim`. Frames are made small (640x360) to keep the debug-build
 //! simulator quick; the detections are simulated at the same size.
 
+mod common;
+
+use common::{free_udp_port, sim_bin, Proc, Relay, Sent, BOOT_TIME_S};
 use mavlink_core::{
     MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, SigningConfig, SigningData,
 };
 use mgmot::mavlink::dialect::*;
 use sha2::{Digest, Sha256};
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-/// Autopilot clock at sim time 0 (the scenarios' default `telemetry.boot_time_s`).
-const BOOT_TIME_S: f64 = 120.0;
 /// The GCS's system and component ids.
 const GCS: (u8, u8) = (255, 190);
 /// mgmot's system and component ids (the defaults).
@@ -33,95 +31,18 @@ const KEY: [u8; 32] = [
     0x73, 0x74, 0x73, 0x2d, 0x6f, 0x6e, 0x6c, 0x79, 0x2d, 0x30, 0x31, 0x32, 0x33, 0x34, 0x35, 0x36,
 ];
 
-fn sim_bin() -> PathBuf {
-    if let Some(p) = std::env::var_os("MGMOT_SIM_BIN") {
-        return PathBuf::from(p);
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let status = Command::new(env!("CARGO"))
-        .args(["build", "-p", "mgmot-sim"])
-        .current_dir(root)
-        .status()
-        .expect("running cargo build -p mgmot-sim");
-    assert!(status.success(), "cargo build -p mgmot-sim failed");
-    root.join("target/debug/mgmot-sim")
-}
-
-/// A child process killed when the test ends, passed or not.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// One datagram mgmot sent.
-#[derive(Clone)]
-struct Sent {
-    bytes: Vec<u8>,
-    header: MavHeader,
-    msg: MavMessage,
-}
-
-/// The UDP link between the simulator and mgmot, with the test's GCS on it: forwards the
-/// simulator's datagrams to mgmot and mgmot's back, records what mgmot sends, and sends the
-/// GCS's commands to mgmot from the same socket (a `udpin` link answers its latest peer).
+/// The simulator <-> mgmot relay, with the test's GCS on it: it sends the GCS's commands to
+/// mgmot from the relay's own socket.
 struct Link {
-    sent: Arc<Mutex<Vec<Sent>>>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    to_mgmot: UdpSocket,
-    mgmot_port: u16,
-    listen_port: u16,
+    relay: Relay,
     gcs_signing: SigningData,
     wrong_signing: SigningData,
 }
 
 impl Link {
     fn start(mgmot_port: u16) -> Link {
-        let up = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let down = UdpSocket::bind("127.0.0.1:0").unwrap();
-        up.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
-        down.set_read_timeout(Some(Duration::from_millis(1)))
-            .unwrap();
-        let listen_port = up.local_addr().unwrap().port();
-        let to_mgmot = down.try_clone().unwrap();
-        let sent = Arc::new(Mutex::new(Vec::new()));
-        let stop = Arc::new(AtomicBool::new(false));
-        let (log, s) = (sent.clone(), stop.clone());
-        let thread = std::thread::spawn(move || {
-            let mut sim = None;
-            let mut buf = [0u8; 65536];
-            while !s.load(Ordering::Relaxed) {
-                if let Ok((n, from)) = up.recv_from(&mut buf) {
-                    sim = Some(from);
-                    let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
-                }
-                if let Ok(n) = down.recv(&mut buf) {
-                    if let Some(sim) = sim {
-                        let _ = up.send_to(&buf[..n], sim);
-                    }
-                    let mut reader = MavlinkReader::new(&buf[..n]);
-                    if let Ok((header, msg)) = reader.read_message::<MavMessage>(MavlinkVersion::V2)
-                    {
-                        log.lock().unwrap().push(Sent {
-                            bytes: buf[..n].to_vec(),
-                            header,
-                            msg,
-                        });
-                    }
-                }
-            }
-        });
         Link {
-            sent,
-            stop,
-            thread: Some(thread),
-            to_mgmot,
-            mgmot_port,
-            listen_port,
+            relay: Relay::start(mgmot_port),
             gcs_signing: SigningData::from_config(SigningConfig::new(KEY, 0, true, false)),
             wrong_signing: SigningData::from_config(SigningConfig::new([9; 32], 0, true, false)),
         }
@@ -129,11 +50,11 @@ impl Link {
 
     /// How many messages mgmot has sent so far (a position to wait from).
     fn mark(&self) -> usize {
-        self.sent.lock().unwrap().len()
+        self.relay.sent.lock().unwrap().len()
     }
 
     fn since(&self, from: usize) -> Vec<Sent> {
-        self.sent.lock().unwrap()[from..].to_vec()
+        self.relay.sent.lock().unwrap()[from..].to_vec()
     }
 
     /// The first message from position `from` on that `pred` accepts, waiting up to `limit`.
@@ -147,7 +68,7 @@ impl Link {
         let mut next = from;
         while start.elapsed() < limit {
             {
-                let sent = self.sent.lock().unwrap();
+                let sent = self.relay.sent.lock().unwrap();
                 for (i, s) in sent.iter().enumerate().skip(next) {
                     if pred(&s.msg) {
                         return Some((i, s.clone()));
@@ -182,26 +103,15 @@ impl Link {
             signing,
         )
         .unwrap();
-        self.to_mgmot
-            .send_to(&buf, ("127.0.0.1", self.mgmot_port))
+        self.relay
+            .to_mgmot
+            .send_to(&buf, ("127.0.0.1", self.relay.mgmot_port))
             .unwrap();
     }
 
-    fn finish(mut self) -> Vec<Sent> {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            t.join().unwrap();
-        }
-        std::mem::take(&mut *self.sent.lock().unwrap())
+    fn finish(self) -> Vec<Sent> {
+        self.relay.finish()
     }
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 struct Setup {
@@ -263,7 +173,7 @@ fn start_sim(s: &Setup, duration_s: f64, lockstep: bool, link: &Link) -> Proc {
             .args(SIZE)
             .arg(if lockstep { "--lockstep" } else { "--realtime" })
             .arg("--mavlink")
-            .arg(format!("udpout:127.0.0.1:{}", link.listen_port))
+            .arg(format!("udpout:127.0.0.1:{}", link.relay.listen_port))
             .arg("--frames")
             .arg(format!("unix:{}", s.dir.join("frames.sock").display()))
             .stdout(Stdio::null())

@@ -9,100 +9,28 @@
 //! mgmot reads frames), on shortened scenarios, at a reduced frame size where the pixels are
 //! not looked at, to keep the suite within the CI budget on a 2-core machine.
 
-use mavlink_core::{MavHeader, MavlinkReader, MavlinkVersion};
+mod common;
+
+use common::{free_udp_port, sim_bin, Relay, BOOT_TIME_S};
+use mavlink_core::MavHeader;
 use mgmot::mavlink::dialect::{
     MavMessage, MavSeverity, MavType, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
 };
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// Autopilot clock at sim time 0 (the scenarios' default `telemetry.boot_time_s`).
-const BOOT_TIME_S: f64 = 120.0;
 
 /// Metres per degree of latitude (spherical approximation; the distances here are tens of
 /// metres, where it is good to millimetres).
 const M_PER_DEG: f64 = 111_320.0;
 
-fn sim_bin() -> PathBuf {
-    if let Some(p) = std::env::var_os("MGMOT_SIM_BIN") {
-        return PathBuf::from(p);
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let status = Command::new(env!("CARGO"))
-        .args(["build", "-p", "mgmot-sim"])
-        .current_dir(root)
-        .status()
-        .expect("running cargo build -p mgmot-sim");
-    assert!(status.success(), "cargo build -p mgmot-sim failed");
-    root.join("target/debug/mgmot-sim")
-}
-
-/// Forwards datagrams between the sim and mgmot and decodes everything mgmot sends.
-struct Tap {
-    messages: Arc<Mutex<Vec<(MavHeader, MavMessage)>>>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    listen_port: u16,
-}
-
-impl Tap {
-    fn start(mgmot_port: u16) -> Tap {
-        let up = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let down = UdpSocket::bind("127.0.0.1:0").unwrap();
-        up.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
-        down.set_read_timeout(Some(Duration::from_millis(1)))
-            .unwrap();
-        let listen_port = up.local_addr().unwrap().port();
-        let messages = Arc::new(Mutex::new(Vec::new()));
-        let stop = Arc::new(AtomicBool::new(false));
-        let (m, s) = (messages.clone(), stop.clone());
-        let thread = std::thread::spawn(move || {
-            let mut sim = None;
-            let mut buf = [0u8; 65536];
-            while !s.load(Ordering::Relaxed) {
-                if let Ok((n, from)) = up.recv_from(&mut buf) {
-                    sim = Some(from);
-                    let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
-                }
-                if let Ok(n) = down.recv(&mut buf) {
-                    if let Some(sim) = sim {
-                        let _ = up.send_to(&buf[..n], sim);
-                    }
-                    let mut reader = MavlinkReader::new(&buf[..n]);
-                    while let Ok(msg) = reader.read_message::<MavMessage>(MavlinkVersion::V2) {
-                        m.lock().unwrap().push(msg);
-                    }
-                }
-            }
-        });
-        Tap {
-            messages,
-            stop,
-            thread: Some(thread),
-            listen_port,
-        }
-    }
-
-    fn finish(mut self) -> Vec<(MavHeader, MavMessage)> {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            t.join().unwrap();
-        }
-        std::mem::take(&mut *self.messages.lock().unwrap())
-    }
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+/// Stops the relay: what mgmot sent, message by message.
+fn finish(tap: Relay) -> Vec<(MavHeader, MavMessage)> {
+    tap.finish()
+        .into_iter()
+        .map(|s| (s.header, s.msg))
+        .collect()
 }
 
 /// Which detector mgmot runs.
@@ -284,7 +212,7 @@ fn run_loopback(spec: &Spec) -> Outcome {
     }
     let mgmot_port = free_udp_port();
     let config = write_config(&dir, mgmot_port, spec.detector);
-    let tap = Tap::start(mgmot_port);
+    let tap = Relay::start(mgmot_port);
     let mut sim_child = start_sim(&sim, spec, &dir, tap.listen_port, true);
     let stats_path = dir.join("stats.json");
     let mut mgmot = start_mgmot(&config, &stats_path);
@@ -299,7 +227,7 @@ fn run_loopback(spec: &Spec) -> Outcome {
     let status = wait_with_timeout(&mut mgmot, Duration::from_secs(600));
     let _ = wait_with_timeout(&mut sim_child, Duration::from_secs(30));
     std::thread::sleep(Duration::from_millis(300));
-    let messages = tap.finish();
+    let messages = finish(tap);
     let stderr = stderr_reader.join().unwrap();
     let stats = std::fs::read_to_string(&stats_path)
         .ok()
@@ -692,7 +620,7 @@ fn sigterm_stops_cleanly() {
     std::fs::write(dir.path().join("dets.json"), "[]").unwrap();
     let mgmot_port = free_udp_port();
     let config = write_config(dir.path(), mgmot_port, Det::Replay);
-    let tap = Tap::start(mgmot_port);
+    let tap = Relay::start(mgmot_port);
     let mut sim_child = start_sim(&sim, &spec, dir.path(), tap.listen_port, false);
     let stats = dir.path().join("stats.json");
     let mut mgmot = start_mgmot(&config, &stats);
@@ -705,7 +633,7 @@ fn sigterm_stops_cleanly() {
     let status = wait_with_timeout(&mut mgmot, Duration::from_secs(20));
     let _ = sim_child.kill();
     let _ = sim_child.wait();
-    let messages = tap.finish();
+    let messages = finish(tap);
     assert!(status.success(), "exit status after SIGTERM: {status:?}");
     assert!(messages
         .iter()
