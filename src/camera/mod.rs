@@ -61,6 +61,12 @@ pub trait FrameSource: Send {
     fn next_frame(&mut self) -> Result<Option<Frame>, CameraError>;
 }
 
+impl<S: FrameSource + ?Sized> FrameSource for Box<S> {
+    fn next_frame(&mut self) -> Result<Option<Frame>, CameraError> {
+        (**self).next_frame()
+    }
+}
+
 /// What went wrong with a frame source. Every variant names the device, socket or file.
 #[derive(Debug, thiserror::Error)]
 pub enum CameraError {

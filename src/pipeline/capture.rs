@@ -65,28 +65,19 @@ pub(super) fn start(
         })
     };
     let stop = move || shutdown.is_shutdown();
-    let thread = std::thread::Builder::new().name("capture".into());
-    let spawned = match frames.clone() {
+    let (open, reconnect): (Opener, Reconnect) = match frames.clone() {
         FramesConfig::Sim {
             socket,
             reconnect_initial_ms,
             reconnect_max_ms,
-        } => {
-            let reconnect = Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms));
-            thread.spawn(move || {
-                let open = |_| SimSocketSource::connect(&socket).map_err(CameraError::from);
-                let end = capture_loop(
-                    open,
-                    deliver,
-                    reconnect,
-                    &stop,
-                    &mut wait,
-                    &mut report,
-                    &captured,
-                );
-                tracing::info!(?end, "capture stopped");
-            })
-        }
+        } => (
+            Box::new(move |_| {
+                SimSocketSource::connect(&socket)
+                    .map(boxed)
+                    .map_err(CameraError::from)
+            }),
+            Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms)),
+        ),
         FramesConfig::V4l2 {
             device,
             pixel_format,
@@ -115,20 +106,10 @@ pub(super) fn start(
                 buffers,
                 frame_timeout: Duration::from_millis(frame_timeout_ms),
             };
-            let reconnect = Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms));
-            thread.spawn(move || {
-                let open = |first_index| V4l2Source::open(&settings, first_index);
-                let end = capture_loop(
-                    open,
-                    deliver,
-                    reconnect,
-                    &stop,
-                    &mut wait,
-                    &mut report,
-                    &captured,
-                );
-                tracing::info!(?end, "capture stopped");
-            })
+            (
+                Box::new(move |first_index| V4l2Source::open(&settings, first_index).map(boxed)),
+                Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms)),
+            )
         }
         FramesConfig::Images {
             directory,
@@ -145,26 +126,40 @@ pub(super) fn start(
             );
             // Images never lose their source (a bad file spoils one frame); the reconnect
             // path is only there for the shape of the loop.
-            let reconnect = Reconnect::new(backoff(1000, 5000));
-            thread.spawn(move || {
-                let open = |_| match first.take() {
-                    Some(d) => Ok(d),
-                    None => ImageDirectory::open(&directory, fps, looping),
-                };
-                let end = capture_loop(
-                    open,
-                    deliver,
-                    reconnect,
-                    &stop,
-                    &mut wait,
-                    &mut report,
-                    &captured,
-                );
-                tracing::info!(?end, "capture stopped");
-            })
+            (
+                Box::new(move |_| {
+                    match first.take() {
+                        Some(d) => Ok(d),
+                        None => ImageDirectory::open(&directory, fps, looping),
+                    }
+                    .map(boxed)
+                }),
+                Reconnect::new(backoff(1000, 5000)),
+            )
         }
     };
-    spawned.map_err(|_| PipelineError::Panicked("capture"))
+    std::thread::Builder::new()
+        .name("capture".into())
+        .spawn(move || {
+            let end = capture_loop(
+                open,
+                deliver,
+                reconnect,
+                &stop,
+                &mut wait,
+                &mut report,
+                &captured,
+            );
+            tracing::info!(?end, "capture stopped");
+        })
+        .map_err(|_| PipelineError::Panicked("capture"))
+}
+
+/// (Re)opens the configured frame source; the argument is the index its first frame gets.
+type Opener = Box<dyn FnMut(u64) -> Result<Box<dyn FrameSource>, CameraError> + Send>;
+
+fn boxed(source: impl FrameSource + 'static) -> Box<dyn FrameSource> {
+    Box::new(source)
 }
 
 /// Sleeps `d`, in slices, returning early when shutdown fires.
