@@ -161,6 +161,53 @@ fn unreachable_tcp_peer_is_retried_not_fatal() {
     assert!(err.contains("retrying"), "{err}");
 }
 
+#[test]
+fn sigint_stops_a_run_and_writes_what_ran() {
+    // A 60 s real-time run, interrupted after about 1.5 s: exit 0 within a second or two, the
+    // truth of the frames that ran written out.
+    let out = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
+        .args(["run", "-s", "calm_baseline", "--realtime", "--truth-out"])
+        .arg(out.path())
+        .env("RUST_LOG", "warn")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(10) {
+            let _ = child.kill();
+            panic!("mgmot-sim did not stop within 10 s of SIGINT");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert!(status.success(), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    // camera.csv has a row per frame (gt.txt only rows with objects in view).
+    let camera = std::fs::read_to_string(out.path().join("camera.csv")).unwrap();
+    let last_frame = camera
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').next()?.parse::<u32>().ok())
+        .max();
+    // 30 fps: a few dozen frames ran, far from the scenario's 1800.
+    assert!(
+        last_frame.is_some_and(|f| (10..600).contains(&f)),
+        "last frame in the truth: {last_frame:?}"
+    );
+}
+
 fn render_truth(dir: &Path, seed: &str) {
     let o = sim(&[
         "render",

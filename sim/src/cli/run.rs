@@ -12,7 +12,7 @@ use mgmot_sim::render::Renderer;
 use mgmot_sim::telemetry::{Autopilot, Scheduler};
 use mgmot_sim::truth::{frame_truth, Optics};
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -90,6 +90,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(dir) => Some(TruthWriter::create(dir, &world)?),
         None => None,
     };
+    // Ctrl-C or SIGTERM ends the run like its end: the truth and the track report are
+    // written for what ran.
+    let interrupted = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, interrupted.clone())
+            .context("installing the signal handler")?;
+    }
     let lockstep = args.lockstep;
     let wait_for = Duration::from_secs_f64(args.wait_consumer_s);
     let n_frames = world.scenario.frame_count();
@@ -110,6 +117,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "simulation started"
     );
     loop {
+        if interrupted.load(Ordering::Relaxed) {
+            tracing::warn!(frames = k, "interrupted: stopping early");
+            break;
+        }
         let next_frame = (k < n_frames).then(|| world.frame_time_s(k) + latency_s);
         let next_tel = scheduler
             .lock()
