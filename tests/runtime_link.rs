@@ -12,7 +12,8 @@ mod common;
 
 use common::{free_udp_port, sim_bin, Proc, Relay, Sent, BOOT_TIME_S};
 use mavlink_core::{
-    MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, SigningConfig, SigningData,
+    MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, MessageData, SigningConfig,
+    SigningData,
 };
 use mgmot::mavlink::dialect::*;
 use sha2::{Digest, Sha256};
@@ -349,6 +350,30 @@ fn operator_selects_a_swimmer_and_follows_it_until_stopped() {
         .wait_for(0, limit, geolocated_swimmer)
         .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot_log(&s)));
     let clicked = track_of(&seen);
+
+    // A GCS asks what this "camera" is: the answer has the tracking capabilities and, frames
+    // flowing, their size.
+    let mark = link.mark();
+    link.send(
+        &MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            target_system: MGMOT.0,
+            target_component: MGMOT.1,
+            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            param1: CAMERA_INFORMATION_DATA::ID as f32,
+            ..Default::default()
+        }),
+        None,
+    );
+    let (_, info) = link
+        .wait_for(mark, Duration::from_secs(10), |m| {
+            matches!(m, MavMessage::CAMERA_INFORMATION(_))
+        })
+        .expect("no CAMERA_INFORMATION");
+    let MavMessage::CAMERA_INFORMATION(info) = info.msg else {
+        unreachable!()
+    };
+    assert_eq!((info.resolution_h, info.resolution_v), (640, 360));
+
     let mark = link.mark();
     link.send(
         &track_point(

@@ -248,7 +248,10 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         }
     }
     let (command_tx, command_rx) = std::sync::mpsc::sync_channel::<OperatorCommand>(COMMAND_QUEUE);
+    // The latest frame's size, for CAMERA_INFORMATION (0: no frame yet).
+    let frame_size = Arc::new(FrameSize::default());
     let receiver = {
+        let frame_size = frame_size.clone();
         let conn = conn.clone();
         let telemetry = telemetry.clone();
         let outbox = outbox.clone();
@@ -340,7 +343,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                                     AckResult::Accepted,
                                 ));
                                 let boot_ms = u32::try_from(now.0 / 1000).unwrap_or(u32::MAX);
-                                outbox.send(link::camera_information(boot_ms, None));
+                                outbox.send(link::camera_information(boot_ms, frame_size.get()));
                             }
                             Incoming::UnsupportedCommand { mav_cmd } => {
                                 outbox.send(ack(mav_cmd, AckResult::Unsupported));
@@ -445,7 +448,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         let outbox = outbox.clone();
         let cfg = config.clone();
         let latency = latency.clone();
-        let operator = OperatorLink::new(&config, command_rx);
+        let operator = OperatorLink::new(&config, command_rx, frame_size);
         std::thread::Builder::new()
             .name("inference".into())
             .spawn(move || {
@@ -835,6 +838,22 @@ fn operator_request(c: CameraCommand) -> operator::Request {
 
 /// The inference thread's side of operator tracking: the command queue, the selection, and
 /// the timing of the CAMERA_TRACKING_* status messages.
+/// A frame size shared between threads, `(width << 32) | height` (0: none yet).
+#[derive(Debug, Default)]
+struct FrameSize(AtomicU64);
+
+impl FrameSize {
+    fn set(&self, (w, h): (u32, u32)) {
+        self.0
+            .store((u64::from(w) << 32) | u64::from(h), Ordering::Relaxed);
+    }
+
+    fn get(&self) -> Option<(u32, u32)> {
+        let v = self.0.load(Ordering::Relaxed);
+        (v != 0).then_some(((v >> 32) as u32, v as u32))
+    }
+}
+
 struct OperatorLink {
     /// Commands from the link's receive task.
     commands: std::sync::mpsc::Receiver<OperatorCommand>,
@@ -844,6 +863,8 @@ struct OperatorLink {
     candidates: Vec<Candidate>,
     /// The latest frame's size (px); `None` before the first frame.
     image_size_px: Option<(u32, u32)>,
+    /// The same, for the receive task's CAMERA_INFORMATION.
+    frame_size: Arc<FrameSize>,
     /// Time between status messages of the selected track.
     status_every: Duration,
     /// When status was last sent (`None`: send at the next frame).
@@ -851,12 +872,17 @@ struct OperatorLink {
 }
 
 impl OperatorLink {
-    fn new(config: &Config, commands: std::sync::mpsc::Receiver<OperatorCommand>) -> Self {
+    fn new(
+        config: &Config,
+        commands: std::sync::mpsc::Receiver<OperatorCommand>,
+        frame_size: Arc<FrameSize>,
+    ) -> Self {
         Self {
             commands,
             selection: Selection::new(config.outputs.track_point_radius),
             candidates: Vec::new(),
             image_size_px: None,
+            frame_size,
             // Validated > 0; the fallback only keeps an unchecked config from panicking.
             status_every: Duration::try_from_secs_f64(1.0 / config.outputs.camera_tracking_hz)
                 .unwrap_or(Duration::from_millis(200)),
@@ -896,6 +922,9 @@ impl OperatorLink {
         geo: impl Fn(&TrackOutput) -> (Option<TrackGeo>, Option<f64>),
         outbox: &Outbox,
     ) {
+        if self.image_size_px != Some(image_size_px) {
+            self.frame_size.set(image_size_px);
+        }
         self.image_size_px = Some(image_size_px);
         self.candidates.clear();
         self.candidates
