@@ -111,21 +111,39 @@ pub struct Detector {
     pre: Preprocessor,
     /// Reused input buffer (3 x H x W floats).
     tensor: Vec<f32>,
-    /// ONNX Runtime only: run options that hand the session a preallocated output tensor,
-    /// reused every run. `ort` 2.0.0-rc.14 leaks an `OrtTypeInfo` (about 270 bytes) for
-    /// every output it allocates itself (`Value::from_session_output_ptr` never releases what
-    /// `GetTypeInfo` returned), a steady 0.5 MiB/min at 30 frames/s; a preallocated output
-    /// never takes that path. tract's shim ignores preallocated outputs, so tract runs
-    /// without them.
-    run_options: Option<PreallocatedOutput>,
+    /// How each run goes after the warm-up (see [`Runner`]).
+    runner: Runner,
 }
 
-/// Run options with a preallocated output (see [`Detector`]).
-struct PreallocatedOutput(RunOptions<HasSelectedOutputs>);
+/// How the model runs per frame.
+///
+/// `ort` 2.0.0-rc.14 leaks an `OrtTypeInfo` for every output it allocates itself
+/// (`Value::from_session_output_ptr` never releases what `GetTypeInfo` returned): about
+/// 270 bytes a run on ONNX Runtime, 64 on the tract shim, a steady growth at 30 frames/s
+/// (measured with heaptrack; fixed in rc.15, which `ort-tract` 0.5 cannot use yet). So
+/// neither backend lets `ort` allocate outputs once loaded: ONNX Runtime writes into a
+/// preallocated output tensor, and tract runs the model through `tract-onnx` directly (the
+/// shim ignores preallocated outputs). The `ort` session still loads and checks the model
+/// on both, so the errors and the warm-up are the same.
+enum Runner {
+    /// `Session::run`: only the first (warm-up) run, which finds the output's shape.
+    Plain,
+    /// ONNX Runtime with run options that hand it the same output tensor every run.
+    Preallocated(RunOptions<HasSelectedOutputs>),
+    /// tract's optimised plan for the model's fixed input size.
+    Tract(TractPlan),
+}
 
-impl std::fmt::Debug for PreallocatedOutput {
+/// tract's runnable plan.
+type TractPlan = std::sync::Arc<tract_onnx::prelude::TypedSimplePlan>;
+
+impl std::fmt::Debug for Runner {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("PreallocatedOutput")
+        f.write_str(match self {
+            Runner::Plain => "Plain",
+            Runner::Preallocated(_) => "Preallocated",
+            Runner::Tract(_) => "Tract",
+        })
     }
 }
 
@@ -189,21 +207,22 @@ impl Detector {
             backend,
             pre: Preprocessor::new(),
             tensor: vec![0.0; 3 * (in_w * in_h) as usize],
-            run_options: None,
+            runner: Runner::Plain,
         };
         let dims = detector.run_raw(|dims, _| dims.to_vec())?;
-        if backend == BackendKind::OnnxRuntime {
-            detector.run_options = Some(
+        detector.runner = match backend {
+            BackendKind::OnnxRuntime => Runner::Preallocated(
                 preallocated_output(&detector.info.output_name, &dims)
                     .map_err(|e| load_err(format!("preallocating the output {dims:?}: {e}")))?,
-            );
-            // The first run with it: the shape and data must come back as without it.
-            let again = detector.run_raw(|dims, _| dims.to_vec())?;
-            if again != dims {
-                return Err(load_err(format!(
-                    "preallocated output came back as {again:?}, not {dims:?}"
-                )));
-            }
+            ),
+            BackendKind::Tract => Runner::Tract(tract_plan(&bytes, in_w, in_h).map_err(load_err)?),
+        };
+        // The first run the new way: the output must come back in the same shape.
+        let again = detector.run_raw(|dims, _| dims.to_vec())?;
+        if again != dims {
+            return Err(load_err(format!(
+                "the output came back as {again:?}, not {dims:?}, after the warm-up"
+            )));
         }
         let (layout, nc, n) =
             detect_layout(&dims, nc_hint).map_err(|problem| DetectError::UnknownOutputLayout {
@@ -341,12 +360,41 @@ impl Detector {
             backend,
             message: e.to_string(),
         };
+        if let Runner::Tract(plan) = &self.runner {
+            let tract_err = |e: tract_onnx::prelude::TractError| DetectError::Inference {
+                path: path.clone(),
+                backend,
+                message: format!("{e:#}"),
+            };
+            let input = tract_onnx::prelude::Tensor::from_shape(&[1, 3, h, w], &self.tensor)
+                .map_err(tract_err)?;
+            let mut inputs = tract_onnx::prelude::TVec::new();
+            inputs.push(input.into());
+            let outputs = plan.run(inputs).map_err(tract_err)?;
+            let out = outputs
+                .first()
+                .ok_or_else(|| DetectError::UnknownOutputLayout {
+                    path: path.clone(),
+                    name: self.info.output_name.clone(),
+                    problem: "the model returned no output".into(),
+                })?;
+            let data = out
+                .try_as_plain_ram()
+                .and_then(|v| v.as_slice::<f32>())
+                .map_err(|e| DetectError::UnknownOutputLayout {
+                    path: path.clone(),
+                    name: self.info.output_name.clone(),
+                    problem: format!("not a float32 tensor ({e})"),
+                })?;
+            let shape: Vec<i64> = out.shape().iter().map(|&d| d as i64).collect();
+            return Ok(f(&shape, data));
+        }
         let input =
             TensorRef::from_array_view(([1usize, 3, h, w], &self.tensor[..])).map_err(err)?;
         let inputs = ort::inputs![self.info.input_name.as_str() => input];
-        let outputs = match &self.run_options {
-            Some(options) => self.session.run_with_options(inputs, &options.0),
-            None => self.session.run(inputs),
+        let outputs = match &self.runner {
+            Runner::Preallocated(options) => self.session.run_with_options(inputs, options),
+            _ => self.session.run(inputs),
         }
         .map_err(err)?;
         let value = &outputs[0];
@@ -364,15 +412,25 @@ impl Detector {
 
 /// Run options that select the output `name` only, written into a float32 tensor of `dims`
 /// allocated here once.
-fn preallocated_output(name: &str, dims: &[i64]) -> ort::Result<PreallocatedOutput> {
+fn preallocated_output(name: &str, dims: &[i64]) -> ort::Result<RunOptions<HasSelectedOutputs>> {
     let tensor = Tensor::<f32>::new(&Allocator::default(), dims.to_vec())?;
-    Ok(PreallocatedOutput(
-        RunOptions::new()?.with_outputs(
-            OutputSelector::no_default()
-                .with(name)
-                .preallocate(name, tensor),
-        ),
+    Ok(RunOptions::new()?.with_outputs(
+        OutputSelector::no_default()
+            .with(name)
+            .preallocate(name, tensor),
     ))
+}
+
+/// tract's plan for the model in `bytes` with its image input fixed at (1, 3, `h`, `w`).
+fn tract_plan(bytes: &[u8], w: u32, h: u32) -> Result<TractPlan, String> {
+    use tract_onnx::prelude::*;
+    let shape = [1usize, 3, h as usize, w as usize];
+    tract_onnx::onnx()
+        .model_for_read(&mut &bytes[..])
+        .and_then(|m| m.with_input_fact(0, f32::fact(shape).into()))
+        .and_then(|m| m.into_optimized())
+        .and_then(|m| m.into_runnable())
+        .map_err(|e| format!("tract: {e:#}"))
 }
 
 /// Checks the single image input: float32, rank 4, (1, 3, H, W); returns its
