@@ -9,7 +9,10 @@
 #                            [--backend onnxruntime|tract] [--model FILE] [--threads N]
 #                            [--out DIR]
 #
-# Defaults: 1 minute, mixed_mission_soak, the int8 model on onnxruntime (fetched from the PyPI
+# Defaults: 1 minute, leave_and_return (hover with a slow gimbal pan: swimmers in view, out of it
+# and back all the time, so tracks, re-identification and messages flow through a whole soak;
+# in mixed_mission_soak the whole-frame detector sees nothing for its first minutes), the int8
+# model on onnxruntime (fetched from the PyPI
 # wheel by scripts/detect_fetch_onnxruntime.sh; --backend tract needs nothing and uses the fp32
 # model). --detector replay replays the simulator's detections instead of running the model:
 # the rest of the pipeline without the cost of inference. Results go to out/bench_runtime/.
@@ -25,7 +28,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 minutes=1
-scenario=mixed_mission_soak
+scenario=leave_and_return
 detector=onnx
 backend=onnxruntime
 model=""
