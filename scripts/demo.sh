@@ -100,10 +100,13 @@ d = sys.argv[1]
 r = json.load(open(os.path.join(d, "track_report.json")))
 f = lambda v: "-" if v is None else f"{v:.2f} m"
 print(f"MGMOT_TRACK messages received by the simulator: {r['messages']} "
-      f"({r['matched']} at a true object, {r['false_tracks']} false, {r['without_geolocation']} without geolocation)")
+      f"({r['matched']} at a true object, {r['wrong_class']} of them with another class, "
+      f"{r['false_tracks']} false, {r['without_geolocation']} without geolocation)")
 print(f"geolocation error vs ground truth: median {f(r['error_median_m'])}, p95 {f(r['error_p95_m'])}, max {f(r['error_max_m'])}")
 for o in r["objects"]:
-    print(f"  true object {o['object_id']:>3}: reported as track id(s) {o['track_ids']}")
+    print(f"  true object {o['object_id']:>3}: reported as track id(s) {o['track_ids']}, "
+          f"after re-identification {o['final_track_ids']}; worst error {o['error_max_m']:.1f} m, "
+          f"{f(o['error_max_tracked_m'])} while detected")
 try:
     s = json.load(open(os.path.join(d, "stats.json")))
     print("mgmot:", {k: s[k] for k in ("frames_captured", "frames_processed", "frames_dropped", "track_messages") if k in s})

@@ -2,19 +2,23 @@
 //! autopilot is checked against the ground truth of the instant it describes, so a bench user
 //! sees geolocated tracks arrive and how far off they are. Pure: no IO, no clock.
 //!
-//! A message is associated with the nearest true object of the same class (any class when the
-//! message says unknown) that exists at the message's capture time, within
-//! [`ASSOCIATION_GATE_M`]; its geolocation error is the horizontal distance to that object's
-//! reference point on the sea surface.
+//! A message is associated with the nearest true object, of any class, that exists at the
+//! message's capture time, within [`ASSOCIATION_GATE_M`]; its geolocation error is the
+//! horizontal distance to that object's reference point on the sea surface. Whether the class
+//! agrees is counted apart: the shipped detector knows swimmers and boats only, so a buoy
+//! reported as a swimmer is a class error at a correct position, not a geolocation error of
+//! the swimmer nearest to it.
 
 use crate::world::World;
 use mgmot::geo::{GeoError, Geodetic, LocalTangentFrame};
-use mgmot::mavlink::dialect::{MgmotObjectClass, MgmotTrackFlags, MGMOT_TRACK_DATA};
+use mgmot::mavlink::dialect::{
+    MgmotObjectClass, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
+};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 
-/// A report further than this from every true object of its class is counted as a false
+/// A report further than this from every true object is counted as a false
 /// track rather than as a large error (m). Boats are up to ~15 m long and their box centre is
 /// not their reference point, hence the generous gate.
 pub const ASSOCIATION_GATE_M: f64 = 20.0;
@@ -26,9 +30,9 @@ pub enum TrackCheck {
     NoGeolocation,
     /// Its capture time is outside the scenario.
     OutOfScenario,
-    /// No true object of its class within the gate.
+    /// No true object within the gate.
     FalseTrack {
-        /// Distance to the nearest true object of the class, if there is one (m).
+        /// Distance to the nearest true object, if there is one (m).
         nearest_m: Option<f64>,
     },
     /// Associated with a true object.
@@ -37,6 +41,8 @@ pub enum TrackCheck {
         object_id: u32,
         /// Horizontal geolocation error (m).
         error_m: f64,
+        /// The message's class is the object's (or the message says unknown).
+        same_class: bool,
     },
 }
 
@@ -50,10 +56,15 @@ pub struct TrackMonitor {
     without_geolocation: u64,
     out_of_scenario: u64,
     false_tracks: u64,
+    wrong_class: u64,
     errors_m: Vec<f64>,
     /// Per true object: every mgmot track id associated with it, and the latest one.
     ids: BTreeMap<u32, (BTreeSet<u32>, u32)>,
+    /// Per true object: the largest error of a message at it, and of one in state TRACKED.
+    worst_m: BTreeMap<u32, (f64, f64)>,
     track_ids: BTreeSet<u32>,
+    /// Re-identification merges mgmot announced: new id -> the old id it now carries.
+    merged_into: BTreeMap<u32, u32>,
 }
 
 /// The summary printed (and written as JSON) at the end of a run.
@@ -69,6 +80,8 @@ pub struct MonitorSummary {
     pub false_tracks: u64,
     /// Of those, associated with a true object.
     pub matched: u64,
+    /// Of the matched, with another class than the object's.
+    pub wrong_class: u64,
     /// Distinct mgmot track ids seen.
     pub track_ids: usize,
     /// Median horizontal geolocation error of the matched messages (m).
@@ -83,7 +96,7 @@ pub struct MonitorSummary {
 }
 
 /// The mgmot track ids one true object was reported under.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ObjectIds {
     /// The object's id in the ground truth.
     pub object_id: u32,
@@ -91,6 +104,15 @@ pub struct ObjectIds {
     pub track_ids: Vec<u32>,
     /// The id of its latest message.
     pub latest_track_id: u32,
+    /// `track_ids` after mgmot's re-identification merges (a new track linked to an old one
+    /// is first reported under its own id, then under the old one with `merged_from_id`):
+    /// one id here means the object kept one identity in the end.
+    pub final_track_ids: Vec<u32>,
+    /// The largest geolocation error of its messages (m).
+    pub error_max_m: f64,
+    /// The largest of those in state TRACKED, matched to a detection in that frame (m); the
+    /// others are the tracker's predictions while the object is not detected.
+    pub error_max_tracked_m: Option<f64>,
 }
 
 impl TrackMonitor {
@@ -106,9 +128,12 @@ impl TrackMonitor {
             without_geolocation: 0,
             out_of_scenario: 0,
             false_tracks: 0,
+            wrong_class: 0,
             errors_m: Vec::new(),
             ids: BTreeMap::new(),
+            worst_m: BTreeMap::new(),
             track_ids: BTreeSet::new(),
+            merged_into: BTreeMap::new(),
         })
     }
 
@@ -116,19 +141,41 @@ impl TrackMonitor {
     pub fn observe(&mut self, world: &World, m: &MGMOT_TRACK_DATA) -> TrackCheck {
         self.messages += 1;
         self.track_ids.insert(m.track_id);
+        if m.flags.contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED)
+            && m.merged_from_id != 0
+            && m.merged_from_id != m.track_id
+        {
+            self.merged_into.insert(m.merged_from_id, m.track_id);
+        }
         let check = self.check(world, m);
         match check {
             TrackCheck::NoGeolocation => self.without_geolocation += 1,
             TrackCheck::OutOfScenario => self.out_of_scenario += 1,
             TrackCheck::FalseTrack { .. } => self.false_tracks += 1,
-            TrackCheck::Matched { object_id, error_m } => {
+            TrackCheck::Matched {
+                object_id,
+                error_m,
+                same_class,
+            } => {
                 self.errors_m.push(error_m);
+                if !same_class {
+                    self.wrong_class += 1;
+                }
                 let entry = self
                     .ids
                     .entry(object_id)
                     .or_insert_with(|| (BTreeSet::new(), m.track_id));
                 entry.0.insert(m.track_id);
                 entry.1 = m.track_id;
+                let worst = self.worst_m.entry(object_id).or_insert((0.0, f64::NAN));
+                worst.0 = worst.0.max(error_m);
+                if m.state == MgmotTrackState::MGMOT_TRACK_STATE_TRACKED {
+                    worst.1 = if worst.1.is_nan() {
+                        error_m
+                    } else {
+                        worst.1.max(error_m)
+                    };
+                }
             }
         }
         check
@@ -158,22 +205,35 @@ impl TrackMonitor {
         let nearest = world
             .objects_at(t_s)
             .into_iter()
-            .filter(|o| {
-                m.object_class == MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN
-                    || o.class.category_id() == m.object_class as u32
-            })
             .map(|o| {
                 let q = Vector3::from(o.pos_ned_m);
-                (o.id, (p.xy() - q.xy()).norm())
+                (o, (p.xy() - q.xy()).norm())
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match nearest {
-            Some((object_id, error_m)) if error_m <= ASSOCIATION_GATE_M => {
-                TrackCheck::Matched { object_id, error_m }
-            }
+            Some((o, error_m)) if error_m <= ASSOCIATION_GATE_M => TrackCheck::Matched {
+                object_id: o.id,
+                error_m,
+                same_class: m.object_class == MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN
+                    || o.class.category_id() == m.object_class as u32,
+            },
             Some((_, d)) => TrackCheck::FalseTrack { nearest_m: Some(d) },
             None => TrackCheck::FalseTrack { nearest_m: None },
         }
+    }
+
+    /// The id `id` ended up as, following the merges (a cycle, which mgmot never sends,
+    /// stops at the id where it closes).
+    fn final_id(&self, id: u32) -> u32 {
+        let mut seen = BTreeSet::from([id]);
+        let mut f = id;
+        while let Some(&next) = self.merged_into.get(&f) {
+            if !seen.insert(next) {
+                break;
+            }
+            f = next;
+        }
+        f
     }
 
     /// Messages received so far.
@@ -198,6 +258,7 @@ impl TrackMonitor {
             out_of_scenario: self.out_of_scenario,
             false_tracks: self.false_tracks,
             matched: e.len() as u64,
+            wrong_class: self.wrong_class,
             track_ids: self.track_ids.len(),
             error_median_m: pct(0.5),
             error_p95_m: pct(0.95),
@@ -209,6 +270,18 @@ impl TrackMonitor {
                     object_id,
                     track_ids: ids.iter().copied().collect(),
                     latest_track_id: *latest,
+                    final_track_ids: ids
+                        .iter()
+                        .map(|&id| self.final_id(id))
+                        .collect::<BTreeSet<u32>>()
+                        .into_iter()
+                        .collect(),
+                    error_max_m: self.worst_m.get(&object_id).map_or(0.0, |w| w.0),
+                    error_max_tracked_m: self
+                        .worst_m
+                        .get(&object_id)
+                        .map(|w| w.1)
+                        .filter(|e| !e.is_nan()),
                 })
                 .collect(),
         }
@@ -255,8 +328,13 @@ mod tests {
         let mut mon = TrackMonitor::new(&w).unwrap();
         let at = [o.pos_ned_m[0] + 1.5, o.pos_ned_m[1] - 2.0, 0.0];
         match mon.observe(&w, &message(&w, t, at, class, 9)) {
-            TrackCheck::Matched { object_id, error_m } => {
+            TrackCheck::Matched {
+                object_id,
+                error_m,
+                same_class,
+            } => {
                 assert_eq!(object_id, o.id);
+                assert!(same_class);
                 assert!((error_m - 2.5).abs() < 0.01, "error {error_m}");
             }
             other => panic!("expected a match, got {other:?}"),
@@ -311,6 +389,36 @@ mod tests {
         let s = mon.summary();
         assert_eq!(s.objects[0].track_ids, vec![4, 11]);
         assert_eq!(s.objects[0].latest_track_id, 11);
+        assert_eq!(s.objects[0].final_track_ids, vec![4, 11]);
         assert!(s.error_max_m.unwrap() < 0.01);
+    }
+
+    #[test]
+    fn merged_ids_resolve_to_the_old_one() {
+        let w = world();
+        let o = w.objects_at(1.0)[0];
+        let class = o.class.category_id();
+        let mut mon = TrackMonitor::new(&w).unwrap();
+        mon.observe(&w, &message(&w, 1.0, o.pos_ned_m, class, 4));
+        // Track 11 appears, then mgmot links it to 4 and chains 15 -> 11 -> 4.
+        mon.observe(
+            &w,
+            &message(&w, 2.0, w.objects_at(2.0)[0].pos_ned_m, class, 11),
+        );
+        let mut merged = message(&w, 3.0, w.objects_at(3.0)[0].pos_ned_m, class, 4);
+        merged.flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED;
+        merged.merged_from_id = 11;
+        mon.observe(&w, &merged);
+        mon.observe(
+            &w,
+            &message(&w, 4.0, w.objects_at(4.0)[0].pos_ned_m, class, 15),
+        );
+        let mut chained = message(&w, 5.0, w.objects_at(5.0)[0].pos_ned_m, class, 11);
+        chained.flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED;
+        chained.merged_from_id = 15;
+        mon.observe(&w, &chained);
+        let s = mon.summary();
+        assert_eq!(s.objects[0].track_ids, vec![4, 11, 15]);
+        assert_eq!(s.objects[0].final_track_ids, vec![4]);
     }
 }

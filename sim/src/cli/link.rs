@@ -246,10 +246,15 @@ fn receive_loop(conn: Conn, ctx: &Receiving<'_>, broken: &AtomicBool, stream_ori
                 // mgmot's output, checked against the truth when a monitor is attached.
                 if let Some(Ok(mut mon)) = monitor.map(|m| m.lock()) {
                     match mon.observe(world, &track) {
-                        TrackCheck::Matched { object_id, error_m } => tracing::debug!(
+                        TrackCheck::Matched {
+                            object_id,
+                            error_m,
+                            same_class,
+                        } => tracing::debug!(
                             track = track.track_id,
                             object = object_id,
                             error_m,
+                            same_class,
                             "mgmot track"
                         ),
                         other => {

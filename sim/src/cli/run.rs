@@ -209,6 +209,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 object = o.object_id,
                 track_ids = ?o.track_ids,
                 latest = o.latest_track_id,
+                after_reid = ?o.final_track_ids,
                 "object reported as"
             );
         }
@@ -229,6 +230,7 @@ fn log_tracks(s: &MonitorSummary, what: &str) {
         track_ids = s.track_ids,
         matched = s.matched,
         false_tracks = s.false_tracks,
+        wrong_class = s.wrong_class,
         without_geolocation = s.without_geolocation,
         error_median_m = %m(s.error_median_m),
         error_p95_m = %m(s.error_p95_m),
