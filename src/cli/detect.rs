@@ -58,7 +58,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.25)]
     score: f32,
     /// IoU threshold of the class-aware NMS.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = mgmot::detect::DEFAULT_NMS_IOU)]
     nms_iou: f32,
     /// IoU threshold of the larger-box-priority suppression (1 turns it off).
     #[arg(long, default_value_t = 0.7)]

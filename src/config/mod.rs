@@ -419,7 +419,7 @@ fn default_score_threshold() -> f32 {
     0.25
 }
 fn default_nms_iou() -> f32 {
-    0.5
+    crate::detect::DEFAULT_NMS_IOU
 }
 fn default_larger_box_iou() -> f32 {
     0.7

@@ -31,7 +31,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 
 pub use backend::{BackendConfig, BackendKind};
-pub use detector::{DetectTimings, Detector, DetectorConfig};
+pub use detector::{DetectTimings, Detector, DetectorConfig, DEFAULT_NMS_IOU};
 pub use model::{ModelInfo, OutputLayout};
 pub use tiling::TilingConfig;
 
