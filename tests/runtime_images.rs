@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::sim_bin;
+use common::{sim_bin, sim_to};
 use mavlink_core::{MavlinkReader, MavlinkVersion};
 use mgmot::mavlink::dialect::MavMessage;
 use std::net::UdpSocket;
@@ -20,17 +20,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 fn sim(args: &[&str], out: &Path) {
-    let o = Command::new(sim_bin())
-        .args(args)
-        .arg("-o")
-        .arg(out)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "mgmot-sim {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    sim_to(&sim_bin(), args, out);
 }
 
 #[test]

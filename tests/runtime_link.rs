@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{free_udp_port, sim_bin, Proc, Relay, Sent, BOOT_TIME_S};
+use common::{free_udp_port, sim_bin, sim_to, Proc, Relay, Sent, BOOT_TIME_S};
 use mavlink_core::{
     MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, MessageData, SigningConfig,
     SigningData,
@@ -130,18 +130,18 @@ fn setup(scenario: &str, duration_s: f64, mavlink_extra: &str, extra: &str) -> S
     let sim = sim_bin();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().to_owned();
-    let out = Command::new(&sim)
-        .args(["detections", "--scenario", scenario, "--duration-s"])
-        .arg(duration_s.to_string())
-        .args(SIZE)
-        .arg("-o")
-        .arg(dir.join("dets.json"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let duration = duration_s.to_string();
+    let args = [
+        "detections",
+        "--scenario",
+        scenario,
+        "--duration-s",
+        &duration,
+    ];
+    sim_to(
+        &sim,
+        &[&args[..], &SIZE[..]].concat(),
+        &dir.join("dets.json"),
     );
     let mgmot_port = free_udp_port();
     let config = dir.join("run.toml");

@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::{free_udp_port, sim_bin, Relay, BOOT_TIME_S};
+use common::{free_udp_port, sim_bin, sim_to, Relay, BOOT_TIME_S};
 use mavlink_core::MavHeader;
 use mgmot::mavlink::dialect::{
     MavMessage, MavSeverity, MavType, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
@@ -197,18 +197,8 @@ fn run_loopback(spec: &Spec) -> Outcome {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().to_owned();
     if spec.detector == Det::Replay {
-        let out = Command::new(&sim)
-            .arg("detections")
-            .args(spec.sim_args())
-            .arg("-o")
-            .arg(dir.join("dets.json"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let args = [vec!["detections".to_string()], spec.sim_args()].concat();
+        sim_to(&sim, &args, &dir.join("dets.json"));
     }
     let mgmot_port = free_udp_port();
     let config = write_config(&dir, mgmot_port, spec.detector);

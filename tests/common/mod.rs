@@ -34,6 +34,22 @@ pub fn sim_bin() -> PathBuf {
     root.join("target/debug/mgmot-sim")
 }
 
+/// Runs `sim ARGS -o OUT` (a batch mode: `render`, `detections`) to the end; a failure fails
+/// the test with the simulator's stderr.
+pub fn sim_to<S: AsRef<std::ffi::OsStr> + std::fmt::Debug>(sim: &Path, args: &[S], out: &Path) {
+    let o = Command::new(sim)
+        .args(args)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "mgmot-sim {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 /// A UDP port free right now on loopback.
 pub fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")
