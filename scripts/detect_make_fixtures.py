@@ -30,7 +30,7 @@ from model import CLASS_NAMES  # noqa: E402
 OUT = ROOT / "tests" / "fixtures" / "detect"
 HELDOUT = ROOT / "train" / "data" / "sim" / "heldout"
 # (sequence, frame file): held-out frames with swimmers and a boat at sizes
-# the 320 px model resolves on the whole frame.
+# the shipped 800x448 model resolves on the whole frame.
 FRAMES = [
     ("leave_and_return_s100002", "img1/000001.jpg"),
     ("boats_crossing_s100002", "img1/000631.jpg"),

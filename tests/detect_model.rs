@@ -66,10 +66,10 @@ fn shipped_models_load_with_their_metadata() {
         let d = load(&root().join(model)).unwrap();
         let info = d.model();
         assert_eq!(info.class_names, vec!["swimmer", "boat"], "{model}");
-        assert_eq!((info.input_width_px, info.input_height_px), (320, 320));
+        assert_eq!((info.input_width_px, info.input_height_px), (800, 448));
         assert_eq!(info.layout, OutputLayout::ChannelsFirst);
-        // (320/8)^2 + (320/16)^2 + (320/32)^2 candidates.
-        assert_eq!(info.num_candidates, 1600 + 400 + 100);
+        // One candidate per cell at strides 8, 16 and 32 of the 800x448 input.
+        assert_eq!(info.num_candidates, 100 * 56 + 50 * 28 + 25 * 14);
         assert_eq!(d.backend(), BackendKind::Tract);
     }
 }
@@ -120,14 +120,23 @@ fn match_fixtures(d: &mut Detector, classes: &[usize]) -> (usize, usize, usize) 
 }
 
 #[test]
-fn shipped_model_finds_the_boats_on_whole_frames() {
-    // Letterboxed into 320 px, a 1280x720 frame shrinks the 8-20 px swimmers
-    // to 2-5 px: on whole frames only the boats are a fair check.
+fn shipped_model_finds_swimmers_and_boats_on_whole_frames() {
+    // The 800x448 input keeps a 1280x720 frame at 0.62 of its size: the
+    // 8-20 px swimmers stay 5-12 px, which the model resolves without tiling.
     let mut d = load(&root().join(INT8)).unwrap();
-    let (matched, total, false_positives) = match_fixtures(&mut d, &[1]);
+    let (matched, total, false_positives) = match_fixtures(&mut d, &[0, 1]);
+    eprintln!("whole frames: matched {matched} of {total}, {false_positives} false positives");
     assert!(total > 0);
-    assert!(matched == total, "matched {matched} of {total} boats");
-    assert!(false_positives <= 1, "{false_positives} false boats");
+    // Bounds that record what the shipped model reaches on these frames
+    // (measured with the Rust path: 8 of 9 objects, 2 false positives).
+    assert!(
+        matched * 4 >= total * 3,
+        "matched {matched} of {total} objects"
+    );
+    assert!(
+        false_positives <= total,
+        "{false_positives} false positives for {total} objects"
+    );
 }
 
 #[test]
@@ -136,6 +145,7 @@ fn shipped_model_finds_swimmers_and_boats_with_tiling() {
     cfg.tiling = Some(TilingConfig::default());
     let mut d = Detector::load(cfg).unwrap();
     let (matched, total, false_positives) = match_fixtures(&mut d, &[0, 1]);
+    eprintln!("tiled: matched {matched} of {total}, {false_positives} false positives");
     assert!(total > 0);
     // Bounds that record what the shipped model reaches on these frames
     // (models/README.md has its mAP50 on the whole held-out set).
@@ -143,8 +153,8 @@ fn shipped_model_finds_swimmers_and_boats_with_tiling() {
         matched * 4 >= total * 3,
         "matched {matched} of {total} objects"
     );
-    // Measured: 16 false positives (tiles see wave crests and glint as
-    // swimmers at score >= 0.25) for 9 objects.
+    // Measured: 8 of 9 objects, 4 false positives (tiles see wave crests and
+    // glint as swimmers at score >= 0.25).
     assert!(
         false_positives <= 2 * total,
         "{false_positives} false positives for {total} objects"

@@ -67,17 +67,23 @@ def read_image(path: Path) -> np.ndarray:
 
 
 # ------------------------------------------------------------ preprocessing
-def letterbox(img: np.ndarray, size: int, pad_value: int = 114):
-    """Resize keeping aspect ratio into size x size, centred; returns (img, scale, pad_x, pad_y).
+def hw(size) -> tuple[int, int]:
+    """An input size given as S (square) or (H, W) -> (H, W)."""
+    return (size, size) if isinstance(size, int) else (int(size[0]), int(size[1]))
+
+
+def letterbox(img: np.ndarray, size, pad_value: int = 114):
+    """Resize keeping aspect ratio into the input (S x S, or (H, W)), centred; returns (img, scale, pad_x, pad_y).
 
     Same geometry as the Rust side (src/detect/preprocess.rs).
     """
+    out_h, out_w = hw(size)
     h, w = img.shape[:2]
-    scale = min(size / w, size / h)
+    scale = min(out_w / w, out_h / h)
     nw, nh = max(1, round(w * scale)), max(1, round(h * scale))
     resized = np.asarray(Image.fromarray(img).resize((nw, nh), Image.BILINEAR))
-    out = np.full((size, size, 3), pad_value, np.uint8)
-    px, py = (size - nw) // 2, (size - nh) // 2
+    out = np.full((out_h, out_w, 3), pad_value, np.uint8)
+    px, py = (out_w - nw) // 2, (out_h - nh) // 2
     out[py : py + nh, px : px + nw] = resized
     return out, scale, px, py
 

@@ -1,12 +1,12 @@
 """Export a TinyDet checkpoint (or an untrained, seeded network) to ONNX.
 
-The graph: input ``images`` float32 (1, 3, S, S) RGB in [0, 1], letterboxed;
+The graph: input ``images`` float32 (1, 3, H, W) RGB in [0, 1], letterboxed;
 output ``output0`` float32 (1, 4 + nc, N), the Ultralytics YOLOv8 layout.
 Metadata keys follow Ultralytics (``names``, ``imgsz``, ``stride``, ``task``)
 so that the Rust loader reads class names and input size the same way for
 both kinds of model.
 
-Usage: python export.py --ckpt ckpt.pt --out model.onnx [--size 320]
+Usage: python export.py --ckpt ckpt.pt --out model.onnx [--size 448,800]
        python export.py --untrained --seed 0 --out model.onnx
 """
 
@@ -22,10 +22,11 @@ from model import CLASS_NAMES, TinyDet
 OPSET = 17
 
 
-def export(model: TinyDet, out: str, size: int, description: str) -> None:
+def export(model: TinyDet, out: str, size: tuple[int, int], description: str) -> None:
     model.eval()
     model.export_decode = True
-    x = torch.zeros(1, 3, size, size)
+    h, w = size
+    x = torch.zeros(1, 3, h, w)
     torch.onnx.export(
         model,
         (x,),
@@ -40,7 +41,7 @@ def export(model: TinyDet, out: str, size: int, description: str) -> None:
     names = "{" + ", ".join(f"{i}: '{n}'" for i, n in enumerate(CLASS_NAMES)) + "}"
     meta = {
         "names": names,
-        "imgsz": f"[{size}, {size}]",
+        "imgsz": f"[{h}, {w}]",
         "stride": "32",
         "task": "detect",
         "author": "mgmot train/",
@@ -60,7 +61,7 @@ def main():
     ap.add_argument("--ckpt")
     ap.add_argument("--untrained", action="store_true")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=320)
+    ap.add_argument("--size", default="448,800", help="input H,W (multiples of 32) or S for S x S")
     ap.add_argument("--widths", default="16,32,48,64,96")
     ap.add_argument("--out", required=True)
     ap.add_argument("--description", default="mgmot TinyDet swimmer/boat detector")
@@ -72,7 +73,11 @@ def main():
         model.load_state_dict(state["model"])
     elif not args.untrained:
         raise SystemExit("give --ckpt or --untrained")
-    export(model, args.out, args.size, args.description)
+    dims = [int(v) for v in args.size.split(",")]
+    size = (dims[0], dims[-1])
+    if any(d <= 0 or d % 32 for d in size):
+        raise SystemExit(f"--size {args.size}: each side must be a positive multiple of 32")
+    export(model, args.out, size, args.description)
     print(f"wrote {args.out}")
 
 

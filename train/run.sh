@@ -64,7 +64,7 @@ echo "frames: train $(count_frames "$DATA/train"), held-out $(count_frames "$DAT
 # 3. Train (time-bounded), 4. export fp32, 5. quantise int8, 6. evaluate both.
 "$PY" train.py --data "$DATA/train" --crop 192 --batch 16 --threads 1 --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
-"$PY" export.py --ckpt "$RUN/tinydet.pt" --size 320 --out "$RUN/mgmot-det-fp32.onnx" \
+"$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet swimmer/boat detector, trained on mgmot-sim frames"
 "$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$DATA/train" --count 128
 "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$DATA/heldout" --count 441 --json "$RUN/metrics.json"

@@ -305,12 +305,13 @@ pub struct OnnxDetectorConfig {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub class_names: Option<Vec<String>>,
     /// Run the model on overlapping tiles at native resolution (plus the whole frame, for
-    /// objects larger than a tile), merged by NMS: swimmers of 10-20 px in a 1280x720 frame
-    /// shrink to a few pixels when the whole frame is letterboxed to a 320 px input. Costs one
-    /// model run per tile (1280x720 at 320 px: 12 tiles + 1).
+    /// objects larger than a tile), merged by NMS: for frames much larger than the model's
+    /// input (a 4K frame letterboxed into the shipped 800x448 input shrinks a 20 px swimmer to
+    /// 4 px). Costs one model run per tile (1280x720 with 448 px tiles: 6 tiles + 1).
     #[serde(default)]
     pub tile: bool,
-    /// Tile side (px of the frame); absent: the model's input size (native resolution).
+    /// Tile side (px of the frame); absent: the shorter side of the model's input (native
+    /// resolution).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tile_size_px: Option<u32>,
     /// Overlap between neighbouring tiles (px); at least the largest object to keep whole.

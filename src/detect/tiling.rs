@@ -1,7 +1,7 @@
 //! Overlapping tiles for large frames with tiny objects.
 //!
-//! A 4K frame letterboxed into a 320 px input shrinks a 20 px swimmer to under
-//! 2 px, below what any detector resolves. Tiling runs the model on
+//! A 4K frame letterboxed into an 800x448 input shrinks a 20 px swimmer to
+//! 4 px, at the edge of what a small detector resolves. Tiling runs the model on
 //! overlapping windows at (close to) native resolution and merges the
 //! detections with NMS; an optional extra pass over the whole frame keeps the
 //! large objects that no single tile contains.
