@@ -1,8 +1,8 @@
 //! `mgmot run` against the real `mgmot-sim` on loopback: MAVLink over UDP through a tap that
 //! decodes what mgmot sends (with the generated dialect), frames over the sim's Unix socket.
-//! Most runs use the replay detector (the simulator's detection mode, keyed by frame, so the
-//! tracker sees the simulator's detector model); one runs the real ONNX detector on the
-//! rendered frames.
+//! The identity tests (gimbal swings, leave and return) and one calm run use the real ONNX
+//! detector on rendered 1280x720 frames; the others use the replay detector (the simulator's
+//! detection mode, keyed by frame, so the tracker sees the simulator's detector model).
 //!
 //! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
 //! `cargo build -p mgmot-sim` (a workspace member). The simulator runs in lockstep (as fast as
@@ -38,7 +38,8 @@ fn finish(tap: Relay) -> Vec<(MavHeader, MavMessage)> {
 enum Det {
     /// The simulator's detections of the same scenario, replayed by frame.
     Replay,
-    /// The shipped fp32 model on tract (pure Rust: runs anywhere).
+    /// The shipped fp32 model on rendered frames: on ONNX Runtime where `ORT_DYLIB_PATH`
+    /// names it, else on tract (pure Rust: runs anywhere).
     Onnx,
 }
 
@@ -111,9 +112,17 @@ fn write_config(dir: &Path, mgmot_port: u16, detector: Det) -> PathBuf {
             "kind = \"replay\"\ndetections = \"{}\"\n",
             dir.join("dets.json").display()
         ),
+        // The fp32 model: tract and ONNX Runtime give the same detections with it (parity test
+        // in tests/detect_cli.rs), ONNX Runtime about 4x faster, where ORT_DYLIB_PATH names it
+        // (scripts/test.sh fetches it).
         Det::Onnx => format!(
-            "kind = \"onnx\"\nmodel = \"{}/models/mgmot-det-fp32.onnx\"\nbackend = \"tract\"\n",
-            env!("CARGO_MANIFEST_DIR")
+            "kind = \"onnx\"\nmodel = \"{}/models/mgmot-det-fp32.onnx\"\nbackend = \"{}\"\n",
+            env!("CARGO_MANIFEST_DIR"),
+            if onnxruntime_available() {
+                "onnxruntime"
+            } else {
+                "tract"
+            }
         ),
     };
     let config = dir.join("run.toml");
@@ -128,6 +137,11 @@ fn write_config(dir: &Path, mgmot_port: u16, detector: Det) -> PathBuf {
     )
     .unwrap();
     config
+}
+
+/// Whether `ORT_DYLIB_PATH` names an ONNX Runtime library (mgmot then uses it).
+fn onnxruntime_available() -> bool {
+    std::env::var_os("ORT_DYLIB_PATH").is_some_and(|p| Path::new(&p).is_file())
 }
 
 fn start_sim(sim: &Path, spec: &Spec, dir: &Path, tap_port: u16, truth: bool) -> Child {
@@ -466,28 +480,30 @@ fn onnx_detector_on_rendered_frames_calm_baseline() {
     assert_eq!(o.stats["detector_errors"].as_u64(), Some(0));
 }
 
-/// Sudden gimbal swings (180 deg/s every 4 s): the camera-motion compensation from the pose
-/// and the re-identification keep one id per object.
+/// Sudden gimbal swings (180 deg/s every 4 s), the real detector on rendered 1280x720 frames:
+/// the camera-motion compensation from the pose and the re-identification keep one id per
+/// object.
 #[test]
 fn ids_survive_gimbal_swings() {
     let o = run_loopback(&Spec {
         scenario: "gimbal_swings".into(),
         duration_s: 20.0,
-        size_px: Some((640, 360)),
-        detector: Det::Replay,
+        size_px: None,
+        detector: Det::Onnx,
     });
     assert_ids_survive(&o, 3);
 }
 
-/// The gimbal pans away from the swimmers and back (they are out of view for about 18 s):
-/// long-term re-identification gives them their old ids again.
+/// The gimbal pans away from the swimmers and back (they are out of view for about 18 s), the
+/// real detector on rendered 1280x720 frames: long-term re-identification gives them their old
+/// ids again.
 #[test]
 fn ids_survive_leave_and_return() {
     let o = run_loopback(&Spec {
         scenario: "leave_and_return".into(),
         duration_s: 32.0,
-        size_px: Some((640, 360)),
-        detector: Det::Replay,
+        size_px: None,
+        detector: Det::Onnx,
     });
     assert_ids_survive(&o, 3);
 }
