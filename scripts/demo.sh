@@ -79,6 +79,9 @@ socket = "$PWD/$dir/frames.sock"
 kind = "onnx"
 model = "$PWD/$model"
 backend = "$backend"
+[tracker.baseline]
+# The shipped model's setting (systemd/mgmot.example.toml, models/README.md).
+track_high_thresh = 0.4
 TOML
 echo
 echo "== live: mgmot-sim ($live_scenario, ${live_s} s real time, 1280x720 @ 30 fps) against mgmot run ($backend, $(basename "$model"))"
