@@ -113,7 +113,7 @@ fn write_config(dir: &Path, mgmot_port: u16, detector: Det) -> PathBuf {
             dir.join("dets.json").display()
         ),
         // The fp32 model: tract and ONNX Runtime give the same detections with it (parity test
-        // in tests/detect_cli.rs), ONNX Runtime about 4x faster, where ORT_DYLIB_PATH names it
+        // in tests/detect_cli.rs), ONNX Runtime about 3.5x faster, where ORT_DYLIB_PATH names it
         // (scripts/test.sh fetches it).
         Det::Onnx => format!(
             "kind = \"onnx\"\nmodel = \"{}/models/mgmot-det-fp32.onnx\"\nbackend = \"{}\"\n",
