@@ -186,10 +186,11 @@ fn tract_and_onnxruntime_agree_on_the_shipped_models() {
             return;
         }
     };
-    // fp32 and int8: on the sim fixtures the two engines gave identical
-    // detections (scripts/detect_parity.py --tile: 50 detections, max
-    // differences 0 for int8 and 1.2e-4 px / 2e-7 for fp32); the check uses
-    // the 1 px / 1e-3.
+    // fp32 and int8 on whole frames: over 60 rendered leave_and_return frames
+    // (scripts/detect_parity.py, 121 detections) the engines differed by at
+    // most 1.2e-4 px / 3e-7 (fp32) and 6e-5 px / 0 (int8); the check uses the
+    // issue's 1 px / 1e-3. Tiled int8 on these fixtures differs by up to
+    // 4.9e-3 (models/README.md, "Backend parity").
     for (model, score_tol) in [(FP32, 1e-3), (INT8, 1e-3)] {
         let tract = detect_json(model, "tract", &[]);
         let ort = detect_json(model, "onnxruntime", &["--ort-lib", lib.to_str().unwrap()]);

@@ -9,7 +9,7 @@ Two modes per model, both reported:
 
 * ``full``: the whole frame letterboxed into the model's input (one inference);
 * ``tiled``: what ``mgmot detect --tile`` does with its defaults: overlapping
-  native-resolution square tiles of the input's shorter side (overlap 64 px) plus the whole
+  native-resolution tiles of the input's size (overlap 64 px) plus the whole
   frame, merged by class-aware NMS.
 
 Usage: python evaluate.py --models fp32.onnx int8.onnx --data DIR --json out.json
@@ -86,8 +86,8 @@ def detect(sess, inp, size, img, tiled):
     views = [(img, 0, 0)]
     if tiled:
         h, w = img.shape[:2]
-        t = min(size)  # src/detect/detector.rs: tiles are squares of the input's shorter side
-        views += [(img[y : y + t, x : x + t], x, y) for y in tile_starts(h, t, 64) for x in tile_starts(w, t, 64)]
+        th, tw = size  # src/detect/detector.rs: tiles of the model's input size
+        views += [(img[y : y + th, x : x + tw], x, y) for y in tile_starts(h, th, 64) for x in tile_starts(w, tw, 64)]
     parts = []
     for view, x0, y0 in views:
         lb, scale, px, py = data.letterbox(np.ascontiguousarray(view), size)

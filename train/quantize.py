@@ -25,9 +25,10 @@ from onnxruntime.quantization.shape_inference import quant_pre_process
 import data
 
 # 7-bit weights (onnxruntime's reduce_range). With full 8-bit weights, tract and
-# ONNX Runtime gave scores up to 1.3e-2 apart on this model at 800x448 (int8
-# products summed in a saturating 16-bit step on one side); with 7 bits both
-# give identical detections, and held-out mAP50 did not drop (models/README.md).
+# ONNX Runtime gave scores up to 1.3e-2 apart on this model at 800x448 (likely
+# int8 products summed in a saturating 16-bit step on one side, the usual
+# reason for reduce_range); with 7 bits both give identical scores on
+# whole frames, and held-out mAP50 did not drop (models/README.md).
 REDUCE_RANGE = True
 
 

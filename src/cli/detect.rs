@@ -66,7 +66,7 @@ pub struct Args {
     /// Split large frames into overlapping tiles at native resolution.
     #[arg(long)]
     tile: bool,
-    /// Tile side in pixels (default: the model's input size).
+    /// Side of square tiles in pixels (default: tiles of the model's input size, width x height).
     #[arg(long)]
     tile_size: Option<u32>,
     /// Overlap between tiles in pixels.

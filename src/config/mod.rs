@@ -307,11 +307,11 @@ pub struct OnnxDetectorConfig {
     /// Run the model on overlapping tiles at native resolution (plus the whole frame, for
     /// objects larger than a tile), merged by NMS: for frames much larger than the model's
     /// input (a 4K frame letterboxed into the shipped 800x448 input shrinks a 20 px swimmer to
-    /// 4 px). Costs one model run per tile (1280x720 with 448 px tiles: 6 tiles + 1).
+    /// 4 px). Costs one model run per tile (1280x720 in 800x448 tiles: 4 tiles + 1).
     #[serde(default)]
     pub tile: bool,
-    /// Tile side (px of the frame); absent: the shorter side of the model's input (native
-    /// resolution).
+    /// Side of square tiles (px of the frame); absent: tiles of the model's input size (native
+    /// resolution, no letterbox padding).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tile_size_px: Option<u32>,
     /// Overlap between neighbouring tiles (px); at least the largest object to keep whole.

@@ -285,10 +285,11 @@ impl Detector {
         let regions = match self.config.tiling {
             None => vec![Region::full(fw, fh)],
             Some(t) => {
-                let tile = t
-                    .tile_px
-                    .unwrap_or(self.info.input_width_px.min(self.info.input_height_px));
-                let mut r = tile_grid(fw, fh, tile, t.overlap_px);
+                let (tile_w, tile_h) = t.tile_px.map_or(
+                    (self.info.input_width_px, self.info.input_height_px),
+                    |side| (side, side),
+                );
+                let mut r = tile_grid(fw, fh, tile_w, tile_h, t.overlap_px);
                 if t.include_full_frame && r.len() > 1 {
                     r.push(Region::full(fw, fh));
                 }
