@@ -73,10 +73,13 @@ def main():
         model.load_state_dict(state["model"])
     elif not args.untrained:
         raise SystemExit("give --ckpt or --untrained")
-    dims = [int(v) for v in args.size.split(",")]
+    try:
+        dims = [int(v) for v in args.size.split(",")]
+    except ValueError:
+        dims = []
+    if len(dims) not in (1, 2) or any(d <= 0 or d % 32 for d in dims):
+        raise SystemExit(f"--size {args.size}: expected H,W or S, each a positive multiple of 32")
     size = (dims[0], dims[-1])
-    if any(d <= 0 or d % 32 for d in size):
-        raise SystemExit(f"--size {args.size}: each side must be a positive multiple of 32")
     export(model, args.out, size, args.description)
     print(f"wrote {args.out}")
 
