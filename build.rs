@@ -3,21 +3,33 @@
 //! crate itself uses.
 //!
 //! The dialect includes `common.xml`, `development.xml` and `ardupilotmega.xml`. Those standard
-//! definitions are not copied into this repository: they ship inside the `mavlink` crate's
-//! package (`<package>/mavlink/message_definitions/v1.0/`), which is a dependency of this crate.
-//! `cargo metadata` (run offline, for the target being built, on the resolved lock file) tells where that package's
-//! sources are; `MGMOT_MAVLINK_DEFINITIONS` (a directory) overrides the lookup. The standard
-//! files and `mgmot.xml` are staged side by side in `OUT_DIR` (the generator resolves
-//! `<include>` relative to the including file) and `OUT_DIR/mgmot.rs` is generated from them.
+//! definitions (and what they include) are kept beside `mgmot.xml` in this repository, copied
+//! unchanged from the `mavlink` crate's package at the version pinned in Cargo.toml
+//! (`firmware-config/mavlink/README.md` lists them; `tests/mavlink_definitions.rs` fails if they
+//! drift from the package in use). The build therefore reads only files of this package: it
+//! does not depend on which packages happen to be in the local cargo registry and never runs
+//! cargo or touches the network. `MGMOT_MAVLINK_DEFINITIONS` (a directory with `common.xml`
+//! and its includes) replaces the kept standard files, for trying newer definitions.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The dialect, relative to the package root.
 const DIALECT_XML: &str = "firmware-config/mavlink/mgmot.xml";
 
-/// Where the definitions sit inside the `mavlink` crate's package.
-const DEFINITIONS_IN_PACKAGE: &str = "mavlink/message_definitions/v1.0";
+/// The standard definitions the dialect includes, directly or through another file; kept beside
+/// the dialect.
+const STANDARD_XML: &[&str] = &[
+    "common.xml",
+    "development.xml",
+    "ardupilotmega.xml",
+    "standard.xml",
+    "minimal.xml",
+    "uAvionix.xml",
+    "icarous.xml",
+    "loweheiser.xml",
+    "cubepilot.xml",
+    "csAirLink.xml",
+];
 
 /// The module declaration of the generated dialect, with the lints generated code cannot meet.
 const DECLARATION: &str =
@@ -39,32 +51,36 @@ fn generate() -> Result<(), String> {
     let manifest_dir = PathBuf::from(env("CARGO_MANIFEST_DIR")?);
     let out_dir = PathBuf::from(env("OUT_DIR")?);
     let dialect = manifest_dir.join(DIALECT_XML);
+    let kept = dialect
+        .parent()
+        .ok_or_else(|| format!("{}: no parent directory", dialect.display()))?
+        .to_path_buf();
     println!("cargo:rerun-if-changed={}", dialect.display());
     println!("cargo:rerun-if-changed=build.rs");
     // The generated code has `cfg(feature = ...)` switches for features of the `mavlink` crate
     // that this crate does not have (they stay off here); declare them so they are expected.
     println!("cargo::rustc-check-cfg=cfg(feature, values(\"serde\", \"arbitrary\", \"ts-rs\"))");
     println!("cargo:rerun-if-env-changed=MGMOT_MAVLINK_DEFINITIONS");
+    // tests/mavlink_definitions.rs asks cargo where the `mavlink` package of this target is.
+    println!("cargo:rustc-env=MGMOT_BUILD_TARGET={}", env("TARGET")?);
 
     let standard = match std::env::var_os("MGMOT_MAVLINK_DEFINITIONS") {
         Some(dir) => PathBuf::from(dir),
-        None => mavlink_package_dir(&manifest_dir)?.join(DEFINITIONS_IN_PACKAGE),
+        None => kept,
     };
+    // The generator resolves `<include>` relative to the including file, so the dialect and the
+    // standard files are staged side by side in OUT_DIR.
     let staging = out_dir.join("mavlink-definitions");
     std::fs::create_dir_all(&staging).map_err(|e| format!("{}: {e}", staging.display()))?;
-    let entries = std::fs::read_dir(&standard).map_err(|e| {
-        format!(
-            "{}: {e} (set MGMOT_MAVLINK_DEFINITIONS to a directory with common.xml)",
-            standard.display()
-        )
-    })?;
-    for entry in entries {
-        let path = entry.map_err(|e| e.to_string())?.path();
-        if path.extension().is_some_and(|x| x == "xml") {
-            if let Some(name) = path.file_name() {
-                copy(&path, &staging.join(name))?;
-            }
-        }
+    for name in STANDARD_XML {
+        let from = standard.join(name);
+        println!("cargo:rerun-if-changed={}", from.display());
+        copy(&from, &staging.join(name)).map_err(|e| {
+            format!(
+                "{e} (the standard MAVLink definitions belong beside {DIALECT_XML}; \
+                 MGMOT_MAVLINK_DEFINITIONS may name another directory holding them)"
+            )
+        })?;
     }
     let staged_dialect = staging.join("mgmot.xml");
     copy(&dialect, &staged_dialect)?;
@@ -93,46 +109,4 @@ fn copy(from: &Path, to: &Path) -> Result<(), String> {
     std::fs::copy(from, to)
         .map(|_| ())
         .map_err(|e| format!("copying {} to {}: {e}", from.display(), to.display()))
-}
-
-/// The source directory of the `mavlink` package this crate depends on.
-fn mavlink_package_dir(manifest_dir: &Path) -> Result<PathBuf, String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
-    // Only the packages of the target being built: the others (other platforms) may not have
-    // been downloaded, and the lookup must not touch the network.
-    let target = env("TARGET")?;
-    let output = Command::new(cargo)
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--offline",
-            "--filter-platform",
-        ])
-        .arg(target)
-        .arg("--manifest-path")
-        .arg(manifest_dir.join("Cargo.toml"))
-        .output()
-        .map_err(|e| format!("running cargo metadata: {e}"))?;
-    if !output.status.success() {
-        return Err(format!(
-            "cargo metadata failed: {}",
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    let meta: serde_json::Value = serde_json::from_slice(&output.stdout)
-        .map_err(|e| format!("cargo metadata output: {e}"))?;
-    let packages = meta["packages"]
-        .as_array()
-        .ok_or("cargo metadata: no packages")?;
-    let manifest = packages
-        .iter()
-        .filter(|p| p["name"] == "mavlink")
-        .filter_map(|p| p["manifest_path"].as_str())
-        .next()
-        .ok_or("cargo metadata: the `mavlink` package is not among the dependencies")?;
-    Path::new(manifest)
-        .parent()
-        .map(Path::to_path_buf)
-        .ok_or_else(|| format!("{manifest}: no parent directory"))
 }
