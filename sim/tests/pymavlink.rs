@@ -2,11 +2,26 @@
 //!
 //! Starts the real `mgmot-sim` sending `udpout` to a port where
 //! `scripts/sim_pymavlink_decode.py` listens with pymavlink, and checks the decoded message
-//! set, the rates and the answers to TIMESYNC and REQUEST_MESSAGE. Skipped, with the reason
-//! printed, only when python3 or pymavlink is missing (`pip install pymavlink`).
+//! set, the rates and the answers to TIMESYNC and REQUEST_MESSAGE. When python3 or pymavlink is
+//! missing the test fails and says so (scripts/test.sh installs pymavlink into `.venv`), unless
+//! `MGMOT_ALLOW_MISSING_TOOLS=1` asks for a skip.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
+
+/// A cross-check whose tool is missing fails, naming what to install, so that a run without
+/// the tool cannot look like a pass; `MGMOT_ALLOW_MISSING_TOOLS=1` turns that into a printed skip
+/// for a developer's quick run (scripts/test.sh and CI always provide the tools).
+fn missing_tool(test: &str, why: &str) {
+    if std::env::var_os("MGMOT_ALLOW_MISSING_TOOLS").is_some_and(|v| v == "1") {
+        eprintln!("SKIPPED {test} (MGMOT_ALLOW_MISSING_TOOLS=1): {why}");
+    } else {
+        panic!(
+            "{test} needs a tool that is missing: {why}. scripts/test.sh provides it; \
+             set MGMOT_ALLOW_MISSING_TOOLS=1 to skip this check instead"
+        );
+    }
+}
 
 fn pymavlink_available() -> Result<(), String> {
     match Command::new("python3")
@@ -25,7 +40,7 @@ fn pymavlink_available() -> Result<(), String> {
 #[test]
 fn pymavlink_decodes_the_telemetry() {
     if let Err(why) = pymavlink_available() {
-        eprintln!("SKIPPED pymavlink_decodes_the_telemetry: {why}");
+        missing_tool("pymavlink_decodes_the_telemetry", &why);
         return;
     }
     let script = concat!(
