@@ -44,7 +44,11 @@ fn mavlink_package_dir() -> PathBuf {
     let packages = meta["packages"].as_array().expect("packages");
     let mavlink: Vec<&serde_json::Value> =
         packages.iter().filter(|p| p["name"] == "mavlink").collect();
-    assert_eq!(mavlink.len(), 1, "exactly one `mavlink` package in the build");
+    assert_eq!(
+        mavlink.len(),
+        1,
+        "exactly one `mavlink` package in the build"
+    );
     let path = mavlink[0]["manifest_path"].as_str().expect("manifest_path");
     Path::new(path).parent().expect("package dir").to_path_buf()
 }
@@ -92,5 +96,8 @@ fn kept_files_are_the_whole_include_closure_of_the_dialect() {
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".xml") && n != "mgmot.xml")
         .collect();
-    assert_eq!(on_disk, kept, "firmware-config/mavlink holds exactly the kept files");
+    assert_eq!(
+        on_disk, kept,
+        "firmware-config/mavlink holds exactly the kept files"
+    );
 }
