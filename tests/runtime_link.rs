@@ -571,10 +571,15 @@ fn expected_signature(key: &[u8; 32], frame: &[u8]) -> [u8; 6] {
 fn signing_signs_everything_and_refuses_unsigned_commands_only() {
     let duration_s = 60.0;
     let key_hex: String = KEY.iter().map(|b| format!("{b:02x}")).collect();
+    let state_dir = tempfile::tempdir().unwrap();
+    let state_file = state_dir.path().join("signing-state.json");
     let s = setup(
         "calm_baseline",
         duration_s,
-        &format!("[mavlink.signing]\nkey_hex = \"{key_hex}\"\nlink_id = 5\n"),
+        &format!(
+            "[mavlink.signing]\nkey_hex = \"{key_hex}\"\nlink_id = 5\nstate_file = \"{}\"\n",
+            state_file.display()
+        ),
         "",
     );
     let link = Link::start(s.mgmot_port);

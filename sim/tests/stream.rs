@@ -40,6 +40,9 @@ fn connect_retry(path: &Path) -> UnixStream {
 fn read_frame(s: &mut UnixStream) -> Option<(FrameHeader, Vec<u8>)> {
     let mut h = [0u8; HEADER_LEN];
     s.read_exact(&mut h).ok()?;
+    if mgmot::camera::sim_framing::is_end_of_stream(&h) {
+        return None;
+    }
     let header = FrameHeader::decode(&h).unwrap();
     let mut px = vec![0u8; header.payload_len as usize];
     s.read_exact(&mut px).ok()?;

@@ -19,6 +19,10 @@
 
 /// Frame magic.
 pub const MAGIC: [u8; 4] = *b"MGSF";
+/// Magic of the end-of-stream header: the simulator finished its run on purpose. A stream
+/// that closes without it was cut (the simulator crashed or restarted) and the reader
+/// reconnects.
+pub const END_MAGIC: [u8; 4] = *b"MGSE";
 /// Framing version.
 pub const VERSION: u16 = 1;
 /// Header length in bytes.
@@ -29,6 +33,20 @@ pub const FOURCC_RGB3: [u8; 4] = *b"RGB3";
 /// Payloads larger than this (bytes) are refused by the reader: 8K RGB is 100 MB; a bigger
 /// length is a corrupt header, and allocating it would be the bug.
 pub const MAX_PAYLOAD: usize = 7680 * 4320 * 3;
+
+/// The end-of-stream header: [`END_MAGIC`], the version and header length, zeros after.
+pub fn end_of_stream() -> [u8; HEADER_LEN] {
+    let mut b = [0u8; HEADER_LEN];
+    b[0..4].copy_from_slice(&END_MAGIC);
+    b[4..6].copy_from_slice(&VERSION.to_le_bytes());
+    b[6..8].copy_from_slice(&(HEADER_LEN as u16).to_le_bytes());
+    b
+}
+
+/// Whether `b` (a whole header) is the end-of-stream header.
+pub fn is_end_of_stream(b: &[u8]) -> bool {
+    b.get(0..4) == Some(&END_MAGIC[..])
+}
 
 /// A frame header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 //! The simulator's frame stream: a Unix-domain socket on which `mgmot-sim run --frames
 //! unix:PATH` serves frames in the framing of [`super::sim_framing`].
 
-use super::sim_framing::{FrameHeader, FramingError, HEADER_LEN};
+use super::sim_framing::{is_end_of_stream, FrameHeader, FramingError, HEADER_LEN};
 use super::{CameraError, CaptureTime, Frame, FrameSource};
 use crate::telemetry::AutopilotTimeUs;
 use std::io::Read;
@@ -37,19 +37,27 @@ pub struct SimSocketSource {
 }
 
 impl SimSocketSource {
-    /// Connects to the simulator's socket.
-    pub fn connect(path: &Path) -> Result<Self, SimFramingError> {
-        let stream = UnixStream::connect(path).map_err(|source| SimFramingError::Io {
+    /// Connects to the simulator's socket. A read that waits longer than `timeout` for the
+    /// next bytes fails (a frozen simulator is a lost camera, reconnected, and never blocks a
+    /// shutdown for longer than that).
+    pub fn connect(path: &Path, timeout: std::time::Duration) -> Result<Self, SimFramingError> {
+        let io = |source| SimFramingError::Io {
             path: path.to_owned(),
             source,
-        })?;
+        };
+        let stream = UnixStream::connect(path).map_err(io)?;
+        stream
+            .set_read_timeout(Some(timeout.max(std::time::Duration::from_millis(1))))
+            .map_err(io)?;
         Ok(Self {
             path: path.to_owned(),
             stream,
         })
     }
 
-    /// Reads the next frame. `Ok(None)` at a clean end of stream (the simulator finished).
+    /// Reads the next frame. `Ok(None)` at the end-of-stream header (the simulator finished
+    /// its run); a stream that closes without it is an error (the simulator was cut off), so
+    /// the capture loop reconnects.
     pub fn read_frame(&mut self) -> Result<Option<Frame>, SimFramingError> {
         let io = |path: &Path, source| SimFramingError::Io {
             path: path.to_owned(),
@@ -62,8 +70,19 @@ impl SimSocketSource {
         let mut bytes = [0u8; HEADER_LEN];
         match read_full(&mut self.stream, &mut bytes) {
             Ok(true) => {}
-            Ok(false) => return Ok(None),
+            Ok(false) => {
+                return Err(io(
+                    &self.path,
+                    std::io::Error::new(
+                        std::io::ErrorKind::UnexpectedEof,
+                        "the stream closed without its end-of-stream header",
+                    ),
+                ))
+            }
             Err(e) => return Err(io(&self.path, e)),
+        }
+        if is_end_of_stream(&bytes) {
+            return Ok(None);
         }
         let h = FrameHeader::decode(&bytes).map_err(|e| header(&self.path, e))?;
         let len = h.rgb24_len().map_err(|e| header(&self.path, e))?;
@@ -107,6 +126,9 @@ mod tests {
     use super::*;
     use std::io::Write;
     use std::os::unix::net::UnixListener;
+    use std::time::{Duration, Instant};
+
+    const TIMEOUT: Duration = Duration::from_secs(5);
 
     /// Writer and reader through the shared header code, over a real socket.
     #[test]
@@ -121,8 +143,10 @@ mod tests {
                 s.write_all(&h.encode()).unwrap();
                 s.write_all(&[k as u8; 24]).unwrap();
             }
+            s.write_all(&crate::camera::sim_framing::end_of_stream())
+                .unwrap();
         });
-        let mut src = SimSocketSource::connect(&path).unwrap();
+        let mut src = SimSocketSource::connect(&path, TIMEOUT).unwrap();
         for k in 0..3u64 {
             let f = src.next_frame().unwrap().unwrap();
             assert_eq!(f.index, k);
@@ -135,6 +159,49 @@ mod tests {
         }
         server.join().unwrap();
         assert!(src.next_frame().unwrap().is_none());
+    }
+
+    /// A stream closed without the end-of-stream header was cut off (the simulator crashed
+    /// or restarted): an error, so the capture loop reconnects instead of ending the run.
+    #[test]
+    fn a_close_without_the_end_header_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.sock");
+        let listener = UnixListener::bind(&path).unwrap();
+        let server = std::thread::spawn(move || {
+            let (mut s, _) = listener.accept().unwrap();
+            s.write_all(&FrameHeader::rgb24(0, 0, 4, 2).encode())
+                .unwrap();
+            s.write_all(&[0; 24]).unwrap();
+        });
+        let mut src = SimSocketSource::connect(&path, TIMEOUT).unwrap();
+        assert!(src.next_frame().unwrap().is_some());
+        server.join().unwrap();
+        let e = src.next_frame().unwrap_err();
+        assert!(e.to_string().contains("end-of-stream"), "{e}");
+    }
+
+    /// A simulator that connects and then sends nothing: the read gives up after the
+    /// timeout instead of blocking the capture thread (and a shutdown) for ever.
+    #[test]
+    fn a_frozen_stream_times_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.sock");
+        let listener = UnixListener::bind(&path).unwrap();
+        let server = std::thread::spawn(move || {
+            let (s, _) = listener.accept().unwrap();
+            std::thread::sleep(Duration::from_secs(2));
+            drop(s);
+        });
+        let mut src = SimSocketSource::connect(&path, Duration::from_millis(200)).unwrap();
+        let started = Instant::now();
+        assert!(src.next_frame().is_err());
+        assert!(
+            started.elapsed() < Duration::from_secs(1),
+            "{:?}",
+            started.elapsed()
+        );
+        server.join().unwrap();
     }
 
     #[test]
@@ -152,13 +219,13 @@ mod tests {
                 .unwrap();
             s.write_all(&[0; 10]).unwrap();
         });
-        let e = SimSocketSource::connect(&path)
+        let e = SimSocketSource::connect(&path, TIMEOUT)
             .unwrap()
             .next_frame()
             .unwrap_err();
         assert!(e.to_string().contains("f.sock"), "{e}");
         assert!(e.to_string().contains("payload length 25"), "{e}");
-        let e = SimSocketSource::connect(&path)
+        let e = SimSocketSource::connect(&path, TIMEOUT)
             .unwrap()
             .next_frame()
             .unwrap_err();
@@ -168,7 +235,8 @@ mod tests {
 
     #[test]
     fn missing_socket_names_the_path() {
-        let e = SimSocketSource::connect(Path::new("/nonexistent/mgmot.sock")).unwrap_err();
+        let e =
+            SimSocketSource::connect(Path::new("/nonexistent/mgmot.sock"), TIMEOUT).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/mgmot.sock"));
     }
 }

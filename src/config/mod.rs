@@ -107,6 +107,11 @@ pub struct MavlinkConfig {
     /// MAVLink 2 signing; absent = no signing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub signing: Option<SigningConfig>,
+    /// `udpin` only: the one peer (`IP:PORT`, the autopilot or router) mgmot answers. Absent:
+    /// the first peer that sends a valid frame from the vehicle's system (signed, with signing
+    /// on); another peer takes over only after that one has been silent for 5 s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub udp_peer: Option<std::net::SocketAddr>,
 }
 
 /// MAVLink 2 signing.
@@ -118,6 +123,25 @@ pub struct SigningConfig {
     /// Link id put in our signatures.
     #[serde(default)]
     pub link_id: u8,
+    /// Where the signing timestamps are kept across restarts, so that a signed command
+    /// captured before a restart cannot be replayed after it (the signing spec's advice). The
+    /// file is written at start-up, every second and at exit; its directory must be writable.
+    #[serde(default = "default_signing_state_file")]
+    pub state_file: PathBuf,
+    /// Use unsigned position, attitude, home, clock and gimbal messages from the autopilot
+    /// (an autopilot or router that does not sign). Set false when the autopilot signs its
+    /// link (ArduPilot with signing on signs everything): unsigned telemetry is then refused
+    /// too. Commands must be signed either way.
+    #[serde(default = "yes")]
+    pub accept_unsigned_telemetry: bool,
+}
+
+fn default_signing_state_file() -> PathBuf {
+    PathBuf::from("/var/lib/mgmot/signing-state.json")
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl SigningConfig {
@@ -203,6 +227,10 @@ pub enum FramesConfig {
     Sim {
         /// The socket path.
         socket: PathBuf,
+        /// A read that waits longer than this for the next frame means the simulator froze:
+        /// camera lost, reconnect (ms).
+        #[serde(default = "default_sim_frame_timeout_ms")]
+        frame_timeout_ms: u64,
         /// First reconnect delay when the socket is absent or the stream breaks (ms).
         #[serde(default = "default_reconnect_initial_ms")]
         reconnect_initial_ms: u64,
@@ -228,6 +256,10 @@ fn default_v4l2_buffers() -> u32 {
 
 fn default_frame_timeout_ms() -> u64 {
     2000
+}
+
+fn default_sim_frame_timeout_ms() -> u64 {
+    5000
 }
 
 fn default_reconnect_initial_ms() -> u64 {
@@ -462,7 +494,23 @@ impl Config {
             })
         };
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        // Every rate, duration and noise figure also has an upper bound: beyond it a value is
+        // a typo (1e300 Hz, a 30-year timeout) that would overflow a timer or a covariance.
+        let within = |bad: &mut dyn FnMut(&str, String),
+                      key: &str,
+                      v: f64,
+                      lo: f64,
+                      hi: f64,
+                      lo_open: bool| {
+            let above_lo = if lo_open { v > lo } else { v >= lo };
+            if !(v.is_finite() && above_lo && v <= hi) {
+                let open = if lo_open { "(" } else { "[" };
+                bad(
+                    key,
+                    format!("must be a number in {open}{lo}, {hi}], got {v}"),
+                );
+            }
+        };
 
         if let Err(e) = crate::mavlink::parse_connection(&self.mavlink.connection) {
             bad("mavlink.connection", e.to_string());
@@ -473,12 +521,22 @@ impl Config {
         if self.mavlink.component_id == 0 {
             bad("mavlink.component_id", "must be 1..=255".into());
         }
-        if !non_negative(f64::from(self.mavlink.stream_rate_hz)) {
-            bad("mavlink.stream_rate_hz", "must be >= 0".into());
-        }
-        if !non_negative(self.mavlink.timesync_hz) {
-            bad("mavlink.timesync_hz", "must be >= 0".into());
-        }
+        within(
+            &mut bad,
+            "mavlink.stream_rate_hz",
+            f64::from(self.mavlink.stream_rate_hz),
+            0.0,
+            400.0,
+            false,
+        );
+        within(
+            &mut bad,
+            "mavlink.timesync_hz",
+            self.mavlink.timesync_hz,
+            0.0,
+            50.0,
+            false,
+        );
         if let Some(s) = &self.mavlink.signing {
             if s.key().is_none() {
                 bad(
@@ -491,19 +549,39 @@ impl Config {
             }
         }
         let t = &self.telemetry;
-        if !positive(t.max_pose_age_ms) {
-            bad("telemetry.max_pose_age_ms", "must be > 0".into());
-        }
-        if !non_negative(t.camera_latency_ms) {
-            bad("telemetry.camera_latency_ms", "must be >= 0".into());
-        }
-        if !positive(t.lost_after_ms) {
-            bad("telemetry.lost_after_ms", "must be > 0".into());
-        }
-        if t.water_level_amsl_m.is_some_and(|v| !v.is_finite()) {
-            bad(
+        within(
+            &mut bad,
+            "telemetry.max_pose_age_ms",
+            t.max_pose_age_ms,
+            0.0,
+            60_000.0,
+            true,
+        );
+        within(
+            &mut bad,
+            "telemetry.camera_latency_ms",
+            t.camera_latency_ms,
+            0.0,
+            10_000.0,
+            false,
+        );
+        within(
+            &mut bad,
+            "telemetry.lost_after_ms",
+            t.lost_after_ms,
+            0.0,
+            3_600_000.0,
+            true,
+        );
+        if let Some(v) = t.water_level_amsl_m {
+            // The Dead Sea shore to far above any sea.
+            within(
+                &mut bad,
                 "telemetry.water_level_amsl_m",
-                "must be a finite number".into(),
+                v,
+                -500.0,
+                9000.0,
+                false,
             );
         }
         if t.fixed_mount_pitch_deg
@@ -555,10 +633,16 @@ impl Config {
                 reconnect(&mut bad, *reconnect_initial_ms, *reconnect_max_ms);
             }
             FramesConfig::Sim {
+                frame_timeout_ms,
                 reconnect_initial_ms,
                 reconnect_max_ms,
                 ..
-            } => reconnect(&mut bad, *reconnect_initial_ms, *reconnect_max_ms),
+            } => {
+                if !(1..=60_000).contains(frame_timeout_ms) {
+                    bad("frames.frame_timeout_ms", "must be within 1..=60000".into());
+                }
+                reconnect(&mut bad, *reconnect_initial_ms, *reconnect_max_ms)
+            }
             FramesConfig::Images { fps, .. } => {
                 if !(positive(*fps) && *fps <= 1000.0) {
                     bad("frames.fps", "must be within (0, 1000]".into());
@@ -626,9 +710,14 @@ impl Config {
         {
             bad("camera.hfov_deg", "must be in (0, 180)".into());
         }
-        if !positive(self.geolocation.max_range_m) {
-            bad("geolocation.max_range_m", "must be > 0".into());
-        }
+        within(
+            &mut bad,
+            "geolocation.max_range_m",
+            self.geolocation.max_range_m,
+            0.0,
+            100_000.0,
+            true,
+        );
         let n = &self.geolocation.noise;
         for (key, v) in [
             ("geolocation.noise.attitude_std_deg", n.attitude_std_deg),
@@ -639,19 +728,39 @@ impl Config {
                 n.horizontal_position_std_m,
             ),
         ] {
-            if !non_negative(v) {
-                bad(key, "must be >= 0".into());
-            }
+            let hi = if key.ends_with("attitude_std_deg") {
+                90.0
+            } else {
+                1000.0
+            };
+            within(&mut bad, key, v, 0.0, hi, false);
         }
-        if !positive(self.outputs.track_rate_hz) {
-            bad("outputs.track_rate_hz", "must be > 0".into());
-        }
-        if !positive(self.outputs.heartbeat_hz) {
-            bad("outputs.heartbeat_hz", "must be > 0".into());
-        }
-        if !positive(self.outputs.camera_tracking_hz) {
-            bad("outputs.camera_tracking_hz", "must be > 0".into());
-        }
+        within(
+            &mut bad,
+            "outputs.track_rate_hz",
+            self.outputs.track_rate_hz,
+            0.0,
+            100.0,
+            true,
+        );
+        // MAVLink components send HEARTBEAT at about 1 Hz; a GCS counts one silent for 3-5 s
+        // as gone.
+        within(
+            &mut bad,
+            "outputs.heartbeat_hz",
+            self.outputs.heartbeat_hz,
+            0.2,
+            10.0,
+            false,
+        );
+        within(
+            &mut bad,
+            "outputs.camera_tracking_hz",
+            self.outputs.camera_tracking_hz,
+            0.0,
+            100.0,
+            true,
+        );
         if !(self.outputs.track_point_radius.is_finite()
             && (0.0..=1.0).contains(&self.outputs.track_point_radius))
         {
@@ -720,7 +829,10 @@ class_names = ["swimmer", "boat"]
         c.mavlink.signing = Some(SigningConfig {
             key_hex: "00".repeat(32),
             link_id: 0,
+            state_file: default_signing_state_file(),
+            accept_unsigned_telemetry: true,
         });
+        c.mavlink.udp_peer = Some(([127, 0, 0, 1], 14555).into());
         c.telemetry.water_level_amsl_m = Some(0.0);
         c.telemetry.fixed_mount_pitch_deg = Some(0.0);
         // Through text: the tracker's per-class table has integer keys, which toml::Value lacks.
@@ -959,16 +1071,54 @@ class_names = ["swimmer", "boat"]
         );
     }
 
+    /// Issue "Hardening" item 10: numbers that validated before and then broke `mgmot run`
+    /// (a panic at start, a panicking task, 110,000 heartbeats in 20 s) are refused with their
+    /// key named.
+    #[test]
+    fn out_of_range_numbers_are_refused_with_their_key() {
+        for (key, section, value) in [
+            ("heartbeat_hz", "outputs", "1e-300"),
+            ("heartbeat_hz", "outputs", "1e300"),
+            ("heartbeat_hz", "outputs", "2e9"),
+            ("heartbeat_hz", "outputs", "nan"),
+            ("track_rate_hz", "outputs", "inf"),
+            ("camera_tracking_hz", "outputs", "1e9"),
+            ("timesync_hz", "mavlink", "1e12"),
+            ("max_range_m", "geolocation", "1e308"),
+            ("lost_after_ms", "telemetry", "1e300"),
+            ("max_pose_age_ms", "telemetry", "-1"),
+        ] {
+            let text = if section == "mavlink" {
+                MINIMAL.replace("[mavlink]\n", &format!("[mavlink]\n{key} = {value}\n"))
+            } else {
+                format!("{MINIMAL}\n[{section}]\n{key} = {value}\n")
+            };
+            let c = Config::parse(&text).unwrap();
+            let problems = c.validate().unwrap_err();
+            assert!(
+                problems.iter().any(|p| p.key == format!("{section}.{key}")),
+                "{section}.{key} = {value}: {problems:?}"
+            );
+        }
+        let mut c = Config::parse(MINIMAL).unwrap();
+        c.outputs.heartbeat_hz = 1.0;
+        c.validate().unwrap();
+    }
+
     #[test]
     fn signing_key_hex() {
         let s = SigningConfig {
             key_hex: "0f".repeat(32),
             link_id: 1,
+            state_file: default_signing_state_file(),
+            accept_unsigned_telemetry: true,
         };
         assert_eq!(s.key(), Some([0x0f; 32]));
         let bad = SigningConfig {
             key_hex: "zz".repeat(32),
             link_id: 1,
+            state_file: default_signing_state_file(),
+            accept_unsigned_telemetry: true,
         };
         assert_eq!(bad.key(), None);
     }

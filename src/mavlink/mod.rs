@@ -7,7 +7,8 @@
 mod address;
 mod decode;
 mod encode;
-mod signing;
+pub mod link;
+pub mod signing;
 mod status;
 
 include!(concat!(env!("OUT_DIR"), "/mavlink-bindings/declare.rs"));
@@ -21,6 +22,7 @@ pub use encode::{
     timesync_request, AckResult, Severity, TrackGeo, TrackReport, TrackingMode, TrackingStatus,
     STREAMS,
 };
+pub use link::{Link, LinkEvent, LinkSender, LinkSettings, LinkStats, Received, SigningSettings};
 pub use signing::{is_signed, parse_raw, signing_config};
 pub use status::{Condition, ConditionReport};
 

@@ -68,11 +68,12 @@ pub(super) fn start(
     let (open, reconnect): (Opener, Reconnect) = match frames.clone() {
         FramesConfig::Sim {
             socket,
+            frame_timeout_ms,
             reconnect_initial_ms,
             reconnect_max_ms,
         } => (
             Box::new(move |_| {
-                SimSocketSource::connect(&socket)
+                SimSocketSource::connect(&socket, Duration::from_millis(frame_timeout_ms))
                     .map(boxed)
                     .map_err(CameraError::from)
             }),
@@ -155,6 +156,46 @@ pub(super) fn start(
         .map_err(|_| PipelineError::Panicked("capture"))
 }
 
+/// Maps a source's frame indices onto the pipeline's: the first frame of a session gets
+/// `base`, later ones keep their distance from it; an index that goes back within the session
+/// (the source restarted without a reconnect) starts a new base right after the last one.
+#[derive(Debug, Clone, Copy)]
+struct IndexRebase {
+    base: u64,
+    first_source: Option<u64>,
+    last: Option<u64>,
+}
+
+impl IndexRebase {
+    fn new(base: u64) -> Self {
+        Self {
+            base,
+            first_source: None,
+            last: None,
+        }
+    }
+
+    fn index(&mut self, source: u64) -> u64 {
+        let first = *self.first_source.get_or_insert(source);
+        let mapped = source
+            .checked_sub(first)
+            .map(|d| self.base.saturating_add(d));
+        let mapped = match (mapped, self.last) {
+            (Some(m), Some(last)) if m > last => m,
+            (Some(m), None) => m,
+            // Went back or repeated: a new base right after the last index given.
+            (_, last) => {
+                let next = last.map_or(self.base, |l| l.saturating_add(1));
+                self.base = next;
+                self.first_source = Some(source);
+                next
+            }
+        };
+        self.last = Some(mapped);
+        mapped
+    }
+}
+
 /// (Re)opens the configured frame source; the argument is the index its first frame gets.
 type Opener = Box<dyn FnMut(u64) -> Result<Box<dyn FrameSource>, CameraError> + Send>;
 
@@ -193,6 +234,10 @@ pub(super) fn capture_loop<S: FrameSource>(
         if stop() {
             return CaptureEnd::Shutdown;
         }
+        // Frame indices are the pipeline's, increasing across sessions: a restarted source
+        // (a simulator or camera starting again at 0) must not look like frames from the past
+        // to the tracker. Within a session the source's own gaps (dropped frames) are kept.
+        let mut rebase = IndexRebase::new(next_index);
         let mut source = match open(next_index) {
             Ok(s) => s,
             Err(e) => {
@@ -221,6 +266,8 @@ pub(super) fn capture_loop<S: FrameSource>(
                         tracing::info!(bad_frames, "frames flow again after bad ones");
                         bad_frames = 0;
                     }
+                    let mut frame = frame;
+                    frame.index = rebase.index(frame.index);
                     next_index = frame.index + 1;
                     captured.fetch_add(1, Ordering::Relaxed);
                     if !deliver(frame) {
@@ -276,6 +323,8 @@ mod tests {
     }
 
     struct Fake {
+        /// The index of the session's first frame (the opener's argument, or 0 for a source
+        /// that restarts its numbering like the simulator).
         first_index: u64,
         k: u64,
         count: u64,
@@ -401,6 +450,54 @@ mod tests {
             [s(1), s(2), s(1), s(2), s(4), s(5), s(5), s(1), s(2)]
         );
         assert_eq!(frames, [0, 2, 3, 4, 5, 6]);
+    }
+
+    /// A source that numbers every session from 0 again (the simulator restarted, a camera
+    /// driver reset): the pipeline's indices still only go forward, and gaps within a
+    /// session (dropped frames) are kept.
+    #[test]
+    fn a_source_restarting_its_numbering_never_goes_back() {
+        let captured = AtomicU64::new(0);
+        let mut sessions = 0;
+        let mut frames = Vec::new();
+        capture_loop(
+            |_| {
+                sessions += 1;
+                if sessions > 3 {
+                    return Ok(Fake {
+                        first_index: 0,
+                        k: 0,
+                        count: 0,
+                        bad: None,
+                        then_end: true,
+                    });
+                }
+                Ok(Fake {
+                    first_index: 0,
+                    k: 0,
+                    count: 3,
+                    bad: None,
+                    then_end: false,
+                })
+            },
+            |f: Frame| {
+                frames.push(f.index);
+                true
+            },
+            Reconnect::new(Backoff::new(Duration::from_secs(1), Duration::from_secs(5))),
+            &|| false,
+            &mut |_| {},
+            &mut |_| {},
+            &captured,
+        );
+        assert_eq!(frames, [0, 1, 2, 3, 4, 5, 6, 7, 8]);
+
+        let mut r = IndexRebase::new(100);
+        let got: Vec<u64> = [7, 8, 10, 3, 4, 4, 20]
+            .iter()
+            .map(|&i| r.index(i))
+            .collect();
+        assert_eq!(got, [100, 101, 103, 104, 105, 106, 122]);
     }
 
     #[test]

@@ -12,39 +12,32 @@ use crate::geo::{CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator
 use crate::mavlink::{
     self as link,
     dialect::{MavCmd, MavMessage},
-    AckResult, CameraCommand, Condition, ConditionReport, Incoming, Severity, TrackGeo,
-    TrackReport, TrackingMode, TrackingStatus,
+    AckResult, CameraCommand, Condition, ConditionReport, Incoming, Link, LinkEvent, LinkSender,
+    LinkSettings, LinkStats, Received, Severity, SigningSettings, TrackGeo, TrackReport,
+    TrackingMode, TrackingStatus,
 };
 use crate::telemetry::{AutopilotTimeUs, ClockSync, CompanionTimeUs, PoseBuffer};
 use crate::track::{Detection, FrameInput, TrackOutput, TrackState, Tracker, WorldObservation};
-use mavlink_core::{AsyncMavConnection, MavHeader, MavlinkVersion};
 use nalgebra::{UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc;
-
-/// Outgoing messages queued for the link: enough for every track of a busy frame; when the
-/// link cannot keep up, messages are dropped and counted rather than stalling inference.
-const OUT_QUEUE: usize = 1024;
 
 /// Operator commands waiting for the inference thread: a GCS sends one at a time and retries
 /// unanswered ones, so a few are plenty; beyond that the command is answered
 /// TEMPORARILY_REJECTED.
 const COMMAND_QUEUE: usize = 8;
 
+/// How long shutdown waits for the capture thread.
+const CAPTURE_JOIN_TIMEOUT: Duration = Duration::from_secs(1);
+
 /// Why the runtime stopped with an error.
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
-    /// The MAVLink connection could not be opened.
-    #[error("MAVLink connection `{address}`: {source}")]
-    Link {
-        /// The connection string.
-        address: String,
-        /// The error.
-        source: std::io::Error,
-    },
+    /// The MAVLink link could not be set up (bad connection string, unusable signing state).
+    #[error("MAVLink link: {0}")]
+    Link(#[from] link::link::LinkError),
     /// The frame source cannot be used (an image directory that is missing or empty).
     #[error(transparent)]
     Frames(#[from] crate::camera::CameraError),
@@ -87,6 +80,8 @@ pub struct RunStats {
     pub active_us: u64,
     /// Per-stage latency percentiles over the whole run (see [`super::latency`]).
     pub latency: LatencyReport,
+    /// The MAVLink link's counters (frames, refusals, reconnects, stream requests).
+    pub link: LinkStats,
 }
 
 /// Telemetry shared between the link's receive task and the inference thread.
@@ -110,15 +105,6 @@ impl Monotonic {
     }
 }
 
-/// A message for the link; track messages carry their frame's times for the latency
-/// histograms.
-#[derive(Debug)]
-struct Outgoing {
-    message: MavMessage,
-    /// When the frame of a track message was captured, delivered and its message queued.
-    timing: Option<FrameTiming>,
-}
-
 /// Companion times of a track message's frame, for the latency histograms.
 #[derive(Debug, Clone, Copy)]
 struct FrameTiming {
@@ -130,63 +116,74 @@ struct FrameTiming {
     queued: CompanionTimeUs,
 }
 
-/// Queues a message for the link, counting it when the queue is full.
+/// Queues messages for the link; track messages record their latency when they are sent.
 #[derive(Debug, Clone)]
 struct Outbox {
-    tx: mpsc::Sender<Outgoing>,
-    dropped: Arc<AtomicU64>,
+    link: LinkSender,
+    latency: Arc<Mutex<Latency>>,
 }
 
 impl Outbox {
     fn send(&self, m: MavMessage) {
-        self.queue(Outgoing {
-            message: m,
-            timing: None,
-        });
+        self.link.send(m);
     }
 
-    /// Queues a track message with its frame's times: the sender records capture -> socket
-    /// (end to end), delivery -> socket and queued -> socket.
-    fn send_track(&self, m: MavMessage, timing: FrameTiming) {
-        self.queue(Outgoing {
-            message: m,
-            timing: Some(timing),
-        });
+    /// Queues a track message with its frame's times: when it reaches the socket, capture ->
+    /// socket (end to end), delivery -> socket and queued -> socket are recorded.
+    fn send_track(&self, m: MavMessage, t: FrameTiming) {
+        let latency = self.latency.clone();
+        self.link.send_then(
+            m,
+            Box::new(move |now: CompanionTimeUs| {
+                if let Ok(mut l) = latency.lock() {
+                    l.record_between_us(Stage::Send, t.queued.0, now.0);
+                    l.record_between_us(Stage::DeliveredToSocket, t.delivered.0, now.0);
+                    if let Some(c) = t.captured {
+                        l.record_between_us(Stage::EndToEnd, c.0, now.0);
+                    }
+                }
+            }),
+        );
     }
+}
 
-    fn queue(&self, out: Outgoing) {
-        if self.tx.try_send(out).is_err() {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
-        }
+/// The link's settings from the configuration.
+fn link_settings(config: &Config) -> LinkSettings {
+    let m = &config.mavlink;
+    let streams = if m.stream_rate_hz > 0.0 {
+        link::STREAMS
+            .iter()
+            .map(|&(id, rate)| (id, if rate >= 1.0 { m.stream_rate_hz } else { rate }))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    LinkSettings {
+        connection: m.connection.clone(),
+        system_id: m.system_id,
+        component_id: m.component_id,
+        autopilot_component_id: m.autopilot_component_id,
+        udp_peer: m.udp_peer,
+        signing: m.signing.as_ref().and_then(|s| {
+            s.key().map(|key| SigningSettings {
+                key,
+                link_id: s.link_id,
+                state_file: Some(s.state_file.clone()),
+            })
+        }),
+        streams,
+        timesync_hz: m.timesync_hz,
+        accept_unsigned_telemetry: m
+            .signing
+            .as_ref()
+            .is_none_or(|s| s.accept_unsigned_telemetry),
     }
 }
 
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
 pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
     let clock = Monotonic;
-    let address = config.mavlink.connection.clone();
-    let mut conn = mavlink_core::connect_async::<MavMessage>(&address)
-        .await
-        .map_err(|source| PipelineError::Link {
-            address: address.clone(),
-            source,
-        })?;
-    conn.set_protocol_version(MavlinkVersion::V2);
-    let signing_key = config.mavlink.signing.as_ref().and_then(|s| s.key());
-    if let Some(key) = signing_key {
-        let link_id = config.mavlink.signing.as_ref().map_or(0, |s| s.link_id);
-        // Sign everything we send; verify signed frames; let unsigned ones through so that
-        // unsigned telemetry is still used, and refuse unsigned commands below.
-        conn.setup_signing(Some(link::signing_config(key, link_id)));
-    }
-    let commands_need_signature = signing_key.is_some();
-    let conn = Arc::new(conn);
-    let header = MavHeader {
-        system_id: u32::from(config.mavlink.system_id),
-        component_id: config.mavlink.component_id,
-        sequence: 0,
-    };
-
+    let commands_need_signature = config.mavlink.signing.is_some();
     let max_age_us = (config.telemetry.max_pose_age_ms * 1000.0) as u64;
     let mut poses = PoseBuffer::new(max_age_us);
     if let Some(pitch) = config.telemetry.fixed_mount_pitch_deg {
@@ -202,82 +199,48 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         home: None,
         last_position_at: None,
     }));
-    let (out_tx, mut out_rx) = mpsc::channel::<Outgoing>(OUT_QUEUE);
     let latency = Arc::new(Mutex::new(Latency::new()));
+    let (link_handle, link_sender, mut events) = Link::start(link_settings(&config))?;
     let outbox = Outbox {
-        tx: out_tx,
-        dropped: Arc::new(AtomicU64::new(0)),
+        link: link_sender,
+        latency: latency.clone(),
     };
 
-    // Sender task: the only writer of the connection.
-    let sender = {
-        let conn = conn.clone();
-        let latency = latency.clone();
-        tokio::spawn(async move {
-            while let Some(out) = out_rx.recv().await {
-                if let Err(e) = conn.send(&header, &out.message).await {
-                    tracing::debug!(error = %e, "MAVLink send failed");
-                } else if let Some(t) = out.timing {
-                    let now = clock.now();
-                    if let Ok(mut l) = latency.lock() {
-                        l.record_between_us(Stage::Send, t.queued.0, now.0);
-                        l.record_between_us(Stage::DeliveredToSocket, t.delivered.0, now.0);
-                        if let Some(c) = t.captured {
-                            l.record_between_us(Stage::EndToEnd, c.0, now.0);
-                        }
-                    }
-                }
-            }
-        })
-    };
-
-    // Stream requests, then the receive task.
-    if config.mavlink.stream_rate_hz > 0.0 {
-        for (id, rate) in link::STREAMS {
-            let rate = if rate >= 1.0 {
-                config.mavlink.stream_rate_hz
-            } else {
-                rate
-            };
-            outbox.send(link::message_interval_request(
-                config.mavlink.system_id,
-                config.mavlink.autopilot_component_id,
-                id,
-                rate,
-            ));
-        }
-    }
     let (command_tx, command_rx) = std::sync::mpsc::sync_channel::<OperatorCommand>(COMMAND_QUEUE);
     // The latest frame's size, for CAMERA_INFORMATION (0: no frame yet).
     let frame_size = Arc::new(FrameSize::default());
+    // Receive task: the link's events -> telemetry, clock, operator commands.
     let receiver = {
         let frame_size = frame_size.clone();
-        let conn = conn.clone();
         let telemetry = telemetry.clone();
         let outbox = outbox.clone();
         let mut shutdown = shutdown.clone();
         let (our_system, our_component) = (config.mavlink.system_id, config.mavlink.component_id);
         tokio::spawn(async move {
             loop {
-                let received = tokio::select! {
+                let event = tokio::select! {
                     _ = shutdown.recv() => break,
-                    r = conn.recv_raw() => r,
+                    e = events.recv() => e,
                 };
-                let raw = match received {
-                    Ok(x) => x,
-                    Err(e) => {
-                        tracing::trace!(error = %e, "MAVLink receive");
-                        // UDP "no peer yet" and parse errors: keep listening, without spinning.
-                        tokio::time::sleep(Duration::from_millis(1)).await;
+                let Some(event) = event else { break };
+                let Ok(mut t) = telemetry.lock() else { break };
+                let Received {
+                    message: msg,
+                    system_id: from_system,
+                    component_id: from_component,
+                    signed,
+                    at: now,
+                } = match event {
+                    LinkEvent::TimeSync {
+                        sent,
+                        autopilot,
+                        at,
+                    } => {
+                        t.clock.observe_timesync(sent, autopilot, at);
                         continue;
                     }
+                    LinkEvent::Message(r) => r,
                 };
-                let signed = link::is_signed(&raw);
-                let Ok((hdr, msg)) = link::parse_raw(&raw) else {
-                    continue;
-                };
-                let now = clock.now();
-                let Ok(mut t) = telemetry.lock() else { break };
                 if let MavMessage::MOUNT_STATUS(_) = &msg {
                     if let Some(ap) = t.clock.to_autopilot(now) {
                         if let Some(g) = link::decode_mount_status(&msg, ap) {
@@ -286,7 +249,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                     }
                     continue;
                 }
-                match link::decode(&msg, hdr.component_id, our_system, our_component) {
+                match link::decode(&msg, from_component, our_system, our_component) {
                     Some(Incoming::Position(p)) => {
                         t.clock.observe_arrival(p.time, now);
                         t.poses.push_position(p);
@@ -298,21 +261,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                     }
                     Some(Incoming::Gimbal(g)) => t.poses.push_gimbal(g),
                     Some(Incoming::Home(h)) => t.home = Some(h),
-                    Some(Incoming::TimeSyncAnswer { tc1_ns, ts1_ns }) => {
-                        if let (Ok(ts1), Ok(tc1)) = (u64::try_from(ts1_ns), u64::try_from(tc1_ns)) {
-                            t.clock.observe_timesync(
-                                CompanionTimeUs(ts1 / 1000),
-                                AutopilotTimeUs(tc1 / 1000),
-                                now,
-                            );
-                        }
-                    }
                     Some(c) if c.is_command() => {
-                        let (Ok(from_system), from_component) =
-                            (u8::try_from(hdr.system_id), hdr.component_id)
-                        else {
-                            continue;
-                        };
                         let ack = |mav_cmd, result| {
                             link::command_ack(mav_cmd, result, from_system, from_component)
                         };
@@ -357,35 +306,29 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         })
     };
 
-    // Heartbeat, TIMESYNC and health task.
+    // Heartbeat and telemetry-health task. The heartbeat has an interval of its own (the
+    // configured rate, validated to a sane range), the telemetry check runs twice a second.
     let health = {
         let outbox = outbox.clone();
         let telemetry = telemetry.clone();
         let mut shutdown = shutdown.clone();
         let heartbeat_every = Duration::from_secs_f64(1.0 / config.outputs.heartbeat_hz);
-        let timesync_hz = config.mavlink.timesync_hz;
         let lost_after_us = (config.telemetry.lost_after_ms * 1000.0) as u64;
         tokio::spawn(async move {
-            let mut tick = tokio::time::interval(heartbeat_every.min(Duration::from_millis(500)));
-            let mut last_heartbeat: Option<Instant> = None;
-            let mut last_timesync: Option<Instant> = None;
+            let mut heartbeat = tokio::time::interval(heartbeat_every);
+            heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            let mut check = tokio::time::interval(Duration::from_millis(500));
             let mut telemetry_ok: Option<bool> = None;
             // The companion clock is CLOCK_MONOTONIC (time since boot): start-up is now, not 0.
             let started = clock.now();
             loop {
                 tokio::select! {
                     _ = shutdown.recv() => break,
-                    _ = tick.tick() => {}
-                }
-                if last_heartbeat.is_none_or(|t| t.elapsed() >= heartbeat_every) {
-                    outbox.send(link::heartbeat());
-                    last_heartbeat = Some(Instant::now());
-                }
-                if timesync_hz > 0.0
-                    && last_timesync.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / timesync_hz)
-                {
-                    outbox.send(link::timesync_request(clock.now()));
-                    last_timesync = Some(Instant::now());
+                    _ = heartbeat.tick() => {
+                        outbox.send(link::heartbeat());
+                        continue;
+                    }
+                    _ = check.tick() => {}
                 }
                 let now = clock.now();
                 // Before the first fix, telemetry has had since start-up to arrive: it is not
@@ -465,14 +408,29 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         .await
         .map_err(|_| PipelineError::Panicked("inference"))?
         .map_err(|_| PipelineError::Panicked("inference"))?;
-    let _ = tokio::task::spawn_blocking(move || capture.join()).await;
+    // The capture thread notices shutdown between frames; one blocked in a read of a frozen
+    // source gives up at its read timeout. Shutdown never waits on it for longer than this:
+    // the thread is left to end with the process.
+    let joined = tokio::time::timeout(
+        CAPTURE_JOIN_TIMEOUT,
+        tokio::task::spawn_blocking(move || capture.join()),
+    )
+    .await;
+    if joined.is_err() {
+        tracing::warn!("the capture thread is blocked in a read; not waiting for it");
+    }
     stats.frames_captured = captured.load(Ordering::Relaxed);
-    // Stop the link tasks, then flush what is queued.
+    // Stop the tasks (they watch the shutdown signal; the source ending also ends them), then
+    // close the link, which sends what is queued.
     health.abort();
     receiver.abort();
-    stats.messages_dropped = outbox.dropped.load(Ordering::Relaxed);
+    let _ = health.await;
+    let _ = receiver.await;
+    stats.messages_dropped = outbox.link.dropped();
     drop(outbox);
-    let _ = tokio::time::timeout(Duration::from_secs(2), sender).await;
+    let link_stats = link_handle.close().await;
+    tracing::info!(?link_stats, "MAVLink link closed");
+    stats.link = link_stats;
     if let Ok(l) = latency.lock() {
         stats.latency = l.total();
     }

@@ -60,6 +60,19 @@ impl FrameSink {
         }
     }
 
+    /// Tells the consumer the run is over (the end-of-stream header), so that it ends too
+    /// rather than reconnecting; best effort.
+    pub fn finish(&mut self) {
+        if let FrameSink::Unix(s) = self {
+            if let Some(client) = s.client.as_mut() {
+                let end = mgmot::camera::sim_framing::end_of_stream();
+                if let Err(e) = client.write_all(&end).and_then(|()| client.flush()) {
+                    tracing::debug!(error = %e, "end-of-stream header not delivered");
+                }
+            }
+        }
+    }
+
     /// True when a consumer is connected (accepting a waiting one first; always true for
     /// v4l2).
     pub fn ready(&mut self) -> anyhow::Result<bool> {

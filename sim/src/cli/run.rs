@@ -180,6 +180,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
     }
+    if let Some(sink) = sink.as_mut() {
+        sink.finish();
+    }
     if let Some(tw) = truth {
         tw.finish(&world, "jpg")?;
     }

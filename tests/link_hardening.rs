@@ -1,0 +1,548 @@
+//! The MAVLink link against a hostile or faulty network, over real UDP and TCP sockets on
+//! loopback: the test plays the autopilot, a ground station and an attacker, each with a
+//! socket of its own, against `mgmot::mavlink::Link` (issue "Hardening": numbered items in
+//! the test names).
+
+use mavlink_core::{MAVLinkV2MessageRaw, MavHeader, MessageData};
+use mgmot::mavlink::dialect::{
+    MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, GLOBAL_POSITION_INT_DATA,
+    HEARTBEAT_DATA, HOME_POSITION_DATA, STATUSTEXT_DATA, TIMESYNC_DATA,
+};
+use mgmot::mavlink::link::frames::FrameParser;
+use mgmot::mavlink::{parse_raw, Link, LinkEvent, LinkSender, LinkSettings, SigningSettings};
+use std::net::{SocketAddr, UdpSocket};
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+
+const AUTOPILOT: (u8, u8) = (1, 1);
+const GCS: (u8, u8) = (255, 190);
+const KEY: [u8; 32] = [0x5a; 32];
+
+fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn settings(connection: String) -> LinkSettings {
+    LinkSettings {
+        connection,
+        system_id: 1,
+        component_id: 191,
+        autopilot_component_id: 1,
+        udp_peer: None,
+        signing: None,
+        streams: Vec::new(),
+        timesync_hz: 0.0,
+        accept_unsigned_telemetry: true,
+    }
+}
+
+/// One MAVLink 2 frame from `from`, signed with `sign` = (key, link id, timestamp) if given.
+fn frame(from: (u8, u8), m: &MavMessage, sign: Option<([u8; 32], u8, u64)>) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: u32::from(from.0),
+        component_id: from.1,
+        sequence: 0,
+    };
+    let mut raw = MAVLinkV2MessageRaw::new();
+    match sign {
+        None => raw.serialize_message(header, m),
+        Some((key, link, ts)) => {
+            raw.serialize_message_for_signing(header, m);
+            raw.signature_timestamp_bytes_mut()
+                .copy_from_slice(&ts.to_le_bytes()[..6]);
+            *raw.signature_link_id_mut() = link;
+            let mut sig = [0u8; 6];
+            raw.calculate_signature(&key, &mut sig);
+            raw.signature_value_mut().copy_from_slice(&sig);
+        }
+    }
+    raw.raw_bytes().to_vec()
+}
+
+fn heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA::default())
+}
+
+fn position(lat_e7: i32) -> MavMessage {
+    MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+        time_boot_ms: 1000,
+        lat: lat_e7,
+        lon: 100_000_000,
+        alt: 10_000,
+        relative_alt: 10_000,
+        ..Default::default()
+    })
+}
+
+fn statustext(k: u8) -> MavMessage {
+    let mut text = [0u8; 50];
+    text[0] = b'a' + (k % 26);
+    MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+        text: text.into(),
+        ..Default::default()
+    })
+}
+
+/// What a peer received: header, message (if the dialect decodes it), raw payload, signature
+/// timestamp (if signed).
+type Got = (MavHeader, Option<MavMessage>, Vec<u8>, Option<u64>);
+
+/// A UDP endpoint of the test (autopilot, GCS or attacker).
+struct Peer {
+    socket: UdpSocket,
+}
+
+impl Peer {
+    fn new() -> Peer {
+        let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+        socket
+            .set_read_timeout(Some(Duration::from_millis(20)))
+            .unwrap();
+        Peer { socket }
+    }
+
+    fn send(&self, to: SocketAddr, bytes: &[u8]) {
+        self.socket.send_to(bytes, to).unwrap();
+    }
+
+    /// Every message received within `d`: header, message (if the dialect decodes it), raw
+    /// payload, signature timestamp (if signed).
+    fn receive_for(&self, d: Duration) -> Vec<Got> {
+        let until = Instant::now() + d;
+        let mut out = Vec::new();
+        let mut buf = [0u8; 2048];
+        while Instant::now() < until {
+            if let Ok(n) = self.socket.recv(&mut buf) {
+                let mut p = FrameParser::new();
+                for raw in p.push(&buf[..n]) {
+                    let payload = raw.payload().to_vec();
+                    let header = MavHeader {
+                        system_id: raw.system_id(),
+                        component_id: raw.component_id(),
+                        sequence: raw.sequence(),
+                    };
+                    let signed_ts = match &raw {
+                        mavlink_core::MAVLinkMessageRaw::V2(v2)
+                            if v2.incompatibility_flags() & 1 != 0 =>
+                        {
+                            Some(v2.signature_timestamp())
+                        }
+                        _ => None,
+                    };
+                    out.push((
+                        header,
+                        parse_raw(&raw).ok().map(|(_, m)| m),
+                        payload,
+                        signed_ts,
+                    ));
+                }
+            }
+        }
+        out
+    }
+}
+
+async fn events_for(events: &mut mpsc::Receiver<LinkEvent>, d: Duration) -> Vec<LinkEvent> {
+    let mut out = Vec::new();
+    let until = tokio::time::Instant::now() + d;
+    while let Ok(Some(e)) = tokio::time::timeout_at(until, events.recv()).await {
+        out.push(e);
+    }
+    out
+}
+
+fn positions(events: &[LinkEvent]) -> Vec<(u8, i32)> {
+    events
+        .iter()
+        .filter_map(|e| match e {
+            LinkEvent::Message(r) => match &r.message {
+                MavMessage::GLOBAL_POSITION_INT(p) => Some((r.system_id, p.lat)),
+                _ => None,
+            },
+            LinkEvent::TimeSync { .. } => None,
+        })
+        .collect()
+}
+
+fn start(s: LinkSettings) -> (Link, LinkSender, mpsc::Receiver<LinkEvent>) {
+    Link::start(s).unwrap()
+}
+
+/// Item 1: with `udpin`, replies go to the autopilot that spoke first, not to whoever sent
+/// the last datagram; 100 junk datagrams a second from another peer change nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item1_udpin_answers_its_peer_not_the_last_sender() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let (link, sender, _events) = start(settings(format!("udpin:127.0.0.1:{port}")));
+    let autopilot = Peer::new();
+    let attacker = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    autopilot.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let junk = std::thread::spawn({
+        let attacker = attacker.socket.try_clone().unwrap();
+        move || {
+            for k in 0..100u32 {
+                let _ = attacker.send_to(&[0xFD, 9, 0, 0, k as u8, 42, 1], addr);
+                let _ = attacker.send_to(&frame((42, 1), &heartbeat(), None), addr);
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+    });
+    for k in 0..50 {
+        sender.send(statustext(k));
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    junk.join().unwrap();
+    let to_autopilot = autopilot.receive_for(Duration::from_millis(300));
+    let to_attacker = attacker.receive_for(Duration::from_millis(300));
+    let stats = link.close().await;
+    let texts = to_autopilot
+        .iter()
+        .filter(|(_, m, _, _)| matches!(m, Some(MavMessage::STATUSTEXT(_))))
+        .count();
+    assert_eq!(texts, 50, "the autopilot got {texts} of 50");
+    assert!(
+        to_attacker.is_empty(),
+        "the attacker got {} messages",
+        to_attacker.len()
+    );
+    assert!(stats.from_other_peers >= 100, "{stats:?}");
+}
+
+/// Item 2: pose and home come only from the configured autopilot; a GLOBAL_POSITION_INT or
+/// HOME_POSITION from system 42 (even through the same peer, as a router would forward it)
+/// never reaches the pipeline.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item2_telemetry_only_from_the_configured_autopilot() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let (link, _sender, mut events) = start(settings(format!("udpin:127.0.0.1:{port}")));
+    let router = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    router.send(addr, &frame(AUTOPILOT, &position(500_000_000), None));
+    router.send(addr, &frame((42, 1), &position(510_000_000), None));
+    router.send(addr, &frame((1, 42), &position(520_000_000), None));
+    let home = MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+        latitude: 510_000_000,
+        longitude: 1,
+        altitude: -20_000,
+        ..Default::default()
+    });
+    router.send(addr, &frame((42, 1), &home, None));
+    router.send(addr, &frame(AUTOPILOT, &position(500_000_100), None));
+    let got = events_for(&mut events, Duration::from_millis(500)).await;
+    let stats = link.close().await;
+    assert_eq!(positions(&got), [(1, 500_000_000), (1, 500_000_100)]);
+    assert!(
+        !got.iter().any(|e| matches!(e, LinkEvent::Message(r) if matches!(r.message, MavMessage::HOME_POSITION(_)))),
+        "a spoofed HOME_POSITION got through"
+    );
+    assert_eq!(stats.telemetry_from_others, 3, "{stats:?}");
+}
+
+/// Item 3: a TIMESYNC answer counts only when it answers one of our requests, once, from the
+/// autopilot: a ground station's answer (forwarded by the autopilot), a made-up ts1 and a
+/// repeated answer are all ignored.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item3_timesync_answers_must_match_our_requests() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.timesync_hz = 5.0;
+    let (link, _sender, mut events) = start(s);
+    let autopilot = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    autopilot.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    // Collect a request of ours.
+    let request = loop {
+        let got = autopilot.receive_for(Duration::from_millis(300));
+        if let Some(t) = got.iter().find_map(|(_, m, _, _)| match m {
+            Some(MavMessage::TIMESYNC(t)) if t.tc1 == 0 => Some(t.clone()),
+            _ => None,
+        }) {
+            break t;
+        }
+        autopilot.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    };
+    assert_eq!((request.target_system, request.target_component), AUTOPILOT);
+    let answer = |ts1: i64| {
+        MavMessage::TIMESYNC(TIMESYNC_DATA {
+            tc1: 123_000_000,
+            ts1,
+            target_system: 1,
+            target_component: 191,
+        })
+    };
+    autopilot.send(addr, &frame(GCS, &answer(request.ts1), None)); // a GCS answering
+    autopilot.send(addr, &frame(AUTOPILOT, &answer(request.ts1 + 7), None)); // not ours
+    autopilot.send(addr, &frame(AUTOPILOT, &answer(request.ts1), None)); // the real one
+    autopilot.send(addr, &frame(AUTOPILOT, &answer(request.ts1), None)); // again
+    let got = events_for(&mut events, Duration::from_millis(400)).await;
+    let stats = link.close().await;
+    let syncs: Vec<_> = got
+        .iter()
+        .filter_map(|e| match e {
+            LinkEvent::TimeSync {
+                sent, autopilot, ..
+            } => Some((sent.0, autopilot.0)),
+            LinkEvent::Message(_) => None,
+        })
+        .collect();
+    assert_eq!(syncs, [(request.ts1 as u64 / 1000, 123_000)]);
+    assert!(stats.timesync_unmatched >= 2, "{stats:?}");
+}
+
+fn now_signing() -> u64 {
+    mgmot::mavlink::signing::signing_now()
+}
+
+/// Item 4: one signed frame stamped 120 s ahead is refused, correctly timed frames after it
+/// still pass, and mgmot's own signing timestamps stay on its clock; a signed command
+/// captured before a restart is refused after it (the state file).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item4_signing_clock_cannot_be_pushed_and_survives_restarts() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("signing.json");
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.signing = Some(SigningSettings {
+        key: KEY,
+        link_id: 3,
+        state_file: Some(state.clone()),
+    });
+    let (link, sender, mut events) = start(s.clone());
+    let autopilot = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let t0 = now_signing();
+    autopilot.send(
+        addr,
+        &frame(AUTOPILOT, &position(500_000_000), Some((KEY, 0, t0))),
+    );
+    autopilot.send(
+        addr,
+        &frame(
+            AUTOPILOT,
+            &position(510_000_000),
+            Some((KEY, 0, t0 + 120 * 100_000)),
+        ),
+    );
+    autopilot.send(
+        addr,
+        &frame(AUTOPILOT, &position(500_000_200), Some((KEY, 0, t0 + 2))),
+    );
+    autopilot.send(
+        addr,
+        &frame(
+            AUTOPILOT,
+            &position(510_000_000),
+            Some((KEY, 0, (1 << 48) - 2)),
+        ),
+    );
+    autopilot.send(
+        addr,
+        &frame(AUTOPILOT, &position(500_000_300), Some((KEY, 0, t0 + 3))),
+    );
+    let stop = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+        target_system: 1,
+        target_component: 191,
+        ..Default::default()
+    });
+    let captured_stop = frame(GCS, &stop, Some((KEY, 1, t0 + 10)));
+    autopilot.send(addr, &captured_stop);
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    sender.send(heartbeat());
+    let got = events_for(&mut events, Duration::from_millis(400)).await;
+    let ours = autopilot.receive_for(Duration::from_millis(200));
+    let stats = link.close().await;
+    assert_eq!(
+        positions(&got),
+        [(1, 500_000_000), (1, 500_000_200), (1, 500_000_300)],
+        "frames ahead of the clock refused, later ones still accepted"
+    );
+    let commands = got
+        .iter()
+        .filter(|e| matches!(e, LinkEvent::Message(r) if r.signed && matches!(r.message, MavMessage::COMMAND_LONG(_))))
+        .count();
+    assert_eq!(commands, 1);
+    assert_eq!(stats.signing_refused, 2, "{stats:?}");
+    // Our timestamps: signed, on our clock, neither 120 s ahead nor wrapped.
+    let after = now_signing();
+    let stamps: Vec<u64> = ours.iter().filter_map(|g| g.3).collect();
+    assert!(
+        !stamps.is_empty() && stamps.len() == ours.len(),
+        "unsigned frames sent"
+    );
+    for ts in stamps {
+        assert!(
+            ts >= t0 && ts <= after + 100_000,
+            "our timestamp {ts} is off our clock {after}"
+        );
+    }
+
+    // Restart: the STOP captured before it is a replay.
+    let (link, _sender, mut events) = start(s);
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let hb = frame(AUTOPILOT, &heartbeat(), Some((KEY, 0, now_signing())));
+    autopilot.send(addr, &hb); // the autopilot is the peer again
+    autopilot.send(addr, &captured_stop);
+    let got = events_for(&mut events, Duration::from_millis(400)).await;
+    let stats = link.close().await;
+    assert!(got.is_empty(), "replayed after a restart: {got:?}");
+    assert_eq!(stats.signing_refused, 1);
+}
+
+/// Item 5: a command addressed to mgmot whose id the dialect does not know (it cannot even
+/// be decoded) is answered COMMAND_ACK MAV_RESULT_UNSUPPORTED, with its own id.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item5_unknown_commands_get_unsupported() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let (link, _sender, _events) = start(settings(format!("udpin:127.0.0.1:{port}")));
+    let gcs = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    gcs.send(addr, &frame(AUTOPILOT, &heartbeat(), None)); // through the autopilot's route
+                                                           // COMMAND_LONG with command 31999 (no such MAV_CMD), target (1, 191), raw.
+    let known = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+        target_system: 1,
+        target_component: 191,
+        ..Default::default()
+    });
+    let mut raw = MAVLinkV2MessageRaw::new();
+    raw.serialize_message(
+        MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        },
+        &known,
+    );
+    let len = usize::from(raw.payload_length());
+    let b = raw.as_mut_slice();
+    b[10 + 28..10 + 30].copy_from_slice(&31999u16.to_le_bytes());
+    let crc = mavlink_core::calculate_crc(&b[1..10 + len], COMMAND_LONG_DATA::EXTRA_CRC);
+    b[10 + len..12 + len].copy_from_slice(&crc.to_le_bytes());
+    gcs.send(addr, raw.raw_bytes());
+    let got = gcs.receive_for(Duration::from_millis(500));
+    link.close().await;
+    let acks: Vec<(u16, u8, u8, u8)> = got
+        .iter()
+        .filter(|(h, _, _, _)| h.component_id == 191)
+        .map(|(_, _, p, _)| {
+            let mut q = [0u8; 10];
+            q[..p.len().min(10)].copy_from_slice(&p[..p.len().min(10)]);
+            (u16::from_le_bytes([q[0], q[1]]), q[2], q[8], q[9])
+        })
+        .collect();
+    assert!(
+        acks.contains(&(31999, MavResult::MAV_RESULT_UNSUPPORTED as u8, 255, 190)),
+        "{acks:?}"
+    );
+    // The ack arrived through the frame parser, which checks the CRC against the dialect:
+    // the CRC was made again after the id was written in.
+}
+
+/// Item 9: `tcpout` with nobody listening does not end the link: it retries with back-off,
+/// connects when the server comes up, and reconnects after the server drops it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn item9_tcpout_retries_and_reconnects() {
+    let port = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().port()
+    };
+    let (link, sender, _events) = start(settings(format!("tcpout:127.0.0.1:{port}")));
+    let heartbeats = tokio::spawn(async move {
+        for _ in 0..60 {
+            sender.send(heartbeat());
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    });
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
+        .await
+        .unwrap();
+    for round in 0..2 {
+        let (mut s, _) = tokio::time::timeout(Duration::from_secs(5), listener.accept())
+            .await
+            .unwrap_or_else(|_| panic!("no connection in round {round}"))
+            .unwrap();
+        let mut buf = [0u8; 256];
+        let n = tokio::time::timeout(
+            Duration::from_secs(3),
+            tokio::io::AsyncReadExt::read(&mut s, &mut buf),
+        )
+        .await
+        .unwrap()
+        .unwrap();
+        let mut p = FrameParser::new();
+        assert!(!p.push(&buf[..n]).is_empty(), "round {round}: no frame");
+        drop(s); // the server drops the link: mgmot reconnects
+    }
+    heartbeats.abort();
+    let stats = link.close().await;
+    assert!(stats.connects >= 2, "{stats:?}");
+}
+
+/// Stream requests (items 9 and real-autopilot 2/3): nothing is asked before the autopilot
+/// has been heard (a `udpin` request would be lost), every stream is asked for one request at
+/// a time, again while it does not flow, and from scratch after the autopilot reboots.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn streams_are_requested_after_first_contact_and_after_a_reboot() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.streams = vec![(GLOBAL_POSITION_INT_DATA::ID, 10.0)];
+    let (link, _sender, _events) = start(s);
+    let autopilot = Peer::new();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let requests = |got: &[Got]| {
+        got.iter()
+            .filter(|(_, m, _, _)| {
+                matches!(m, Some(MavMessage::COMMAND_LONG(c))
+                    if c.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL
+                        && c.param1 == GLOBAL_POSITION_INT_DATA::ID as f32)
+            })
+            .count()
+    };
+    autopilot.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    let got = autopilot.receive_for(Duration::from_millis(500));
+    assert_eq!(requests(&got), 1, "asked once the autopilot spoke");
+    let ack = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        result: MavResult::MAV_RESULT_ACCEPTED,
+        target_system: 1,
+        target_component: 191,
+        ..Default::default()
+    });
+    autopilot.send(addr, &frame(AUTOPILOT, &ack, None));
+    // The stream flows for a while: no new request.
+    let mut boot_ms = 10_000u32;
+    let flow = |autopilot: &Peer, boot_ms: u32| {
+        let mut p = position(500_000_000);
+        if let MavMessage::GLOBAL_POSITION_INT(g) = &mut p {
+            g.time_boot_ms = boot_ms;
+        }
+        autopilot.send(addr, &frame(AUTOPILOT, &p, None));
+    };
+    let mut asked = 0;
+    for _ in 0..25 {
+        boot_ms += 100;
+        flow(&autopilot, boot_ms);
+        asked += requests(&autopilot.receive_for(Duration::from_millis(100)));
+    }
+    assert_eq!(asked, 0, "asked again while the stream flowed");
+    // Reboot: boot time back to 1 s: asked again at once.
+    flow(&autopilot, 1000);
+    let got = autopilot.receive_for(Duration::from_millis(400));
+    let stats = link.close().await;
+    assert_eq!(requests(&got), 1, "not asked again after the reboot");
+    assert_eq!(stats.autopilot_restarts, 1, "{stats:?}");
+}

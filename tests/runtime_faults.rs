@@ -1,0 +1,159 @@
+//! `mgmot run` when its frame source misbehaves (issue "Hardening", items 6-8), with the test
+//! as the simulator's frame socket: real process, real Unix socket, real signals.
+//!
+//! - 6: the source restarts and numbers its frames from 0 again: frames keep being tracked.
+//! - 7: the source closes the stream without the end-of-stream header: mgmot reconnects
+//!   instead of exiting 0; the header itself ends the run with exit 0.
+//! - 8: the source freezes (connected, silent): SIGTERM still ends mgmot promptly, exit 0.
+
+mod common;
+
+use common::{free_udp_port, Proc};
+use mgmot::camera::sim_framing::{end_of_stream, FrameHeader};
+use std::io::Write;
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::Path;
+use std::process::{Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// A config for `mgmot run` reading frames from `socket`, detections replayed from an empty
+/// file (no detector needed: these tests are about the frame path).
+fn config(dir: &Path, socket: &Path) -> std::path::PathBuf {
+    let dets = dir.join("dets.json");
+    std::fs::write(&dets, "[]").unwrap();
+    let path = dir.join("mgmot.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "[mavlink]\nconnection = \"udpin:127.0.0.1:{}\"\n\
+             [frames]\nsource = \"sim\"\nsocket = \"{}\"\nframe_timeout_ms = 1000\n\
+             reconnect_initial_ms = 100\nreconnect_max_ms = 200\n\
+             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
+            free_udp_port(),
+            socket.display(),
+            dets.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn start(config: &Path, stats: &Path) -> Proc {
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_mgmot"))
+            .args(["run", "--config"])
+            .arg(config)
+            .arg("--stats-json")
+            .arg(stats)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
+    listener.set_nonblocking(true).unwrap();
+    let until = Instant::now() + within;
+    loop {
+        match listener.accept() {
+            Ok((s, _)) => {
+                s.set_nonblocking(false).unwrap();
+                return s;
+            }
+            Err(_) if Instant::now() < until => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => panic!("mgmot did not connect to the frame socket: {e}"),
+        }
+    }
+}
+
+/// Sends frames `0..n` (their own numbering), 64x36, 30 fps stamps.
+fn send_frames(s: &mut UnixStream, n: u64) {
+    let (w, h) = (64u32, 36u32);
+    let px = vec![90u8; (w * h * 3) as usize];
+    for k in 0..n {
+        let hdr = FrameHeader::rgb24(k, 1_000_000 + k * 33_333, w, h);
+        s.write_all(&hdr.encode()).unwrap();
+        s.write_all(&px).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+fn wait_exit(p: &mut Proc, within: Duration) -> Option<ExitStatus> {
+    let until = Instant::now() + within;
+    while Instant::now() < until {
+        if let Some(status) = p.0.try_wait().unwrap() {
+            return Some(status);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    None
+}
+
+fn sigterm(p: &Proc) {
+    let ok = Command::new("kill")
+        .args(["-TERM", &p.0.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -TERM failed");
+}
+
+fn stats(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// Items 6 and 7: a stream cut without the end-of-stream header is reconnected (mgmot keeps
+/// running), the new session numbers its frames from 0 again and they are still tracked
+/// (no tracker errors), and the end-of-stream header then ends the run with exit 0.
+#[test]
+fn a_cut_stream_is_reconnected_and_restarted_numbering_is_tracked() {
+    let dir = tempfile::tempdir().unwrap();
+    let socket = dir.path().join("frames.sock");
+    let listener = UnixListener::bind(&socket).unwrap();
+    let stats_path = dir.path().join("stats.json");
+    let mut mgmot = start(&config(dir.path(), &socket), &stats_path);
+
+    let mut s = accept(&listener, Duration::from_secs(20));
+    send_frames(&mut s, 20);
+    drop(s); // cut: no end-of-stream header
+    assert!(
+        wait_exit(&mut mgmot, Duration::from_millis(1500)).is_none(),
+        "mgmot exited when the frame stream was cut"
+    );
+    let mut s = accept(&listener, Duration::from_secs(10));
+    send_frames(&mut s, 20); // numbered from 0 again
+    s.write_all(&end_of_stream()).unwrap();
+    let status = wait_exit(&mut mgmot, Duration::from_secs(20)).expect("mgmot did not end");
+    assert!(status.success(), "{status:?}");
+    let st = stats(&stats_path);
+    assert_eq!(st["tracker_errors"], 0, "{st}");
+    assert_eq!(st["frames_captured"], 40, "{st}");
+    assert!(st["frames_processed"].as_u64().unwrap() >= 20, "{st}");
+}
+
+/// Item 8: a frozen source (connected, sending nothing) does not keep SIGTERM from ending
+/// mgmot promptly with exit 0 and its stats written.
+#[test]
+fn sigterm_ends_mgmot_while_the_source_is_frozen() {
+    let dir = tempfile::tempdir().unwrap();
+    let socket = dir.path().join("frames.sock");
+    let listener = UnixListener::bind(&socket).unwrap();
+    let stats_path = dir.path().join("stats.json");
+    let mut mgmot = start(&config(dir.path(), &socket), &stats_path);
+    let mut s = accept(&listener, Duration::from_secs(20));
+    send_frames(&mut s, 3);
+    // Frozen from here: the connection stays open, nothing more is sent.
+    std::thread::sleep(Duration::from_millis(300));
+    let asked = Instant::now();
+    sigterm(&mgmot);
+    let status = wait_exit(&mut mgmot, Duration::from_secs(5)).expect("SIGTERM did not end mgmot");
+    assert!(status.success(), "{status:?}");
+    assert!(
+        asked.elapsed() < Duration::from_secs(3),
+        "{:?}",
+        asked.elapsed()
+    );
+    assert!(stats_path.exists(), "no stats written");
+    drop(s);
+}
