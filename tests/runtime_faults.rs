@@ -26,7 +26,7 @@ fn config(dir: &Path, socket: &Path) -> std::path::PathBuf {
         &path,
         format!(
             "[mavlink]\nconnection = \"udpin:127.0.0.1:{}\"\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\nframe_timeout_ms = 1000\n\
+             [frames]\nsource = \"sim\"\nsocket = \"{}\"\nframe_timeout_ms = 5000\n\
              reconnect_initial_ms = 100\nreconnect_max_ms = 200\n\
              [detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
             free_udp_port(),
@@ -39,6 +39,7 @@ fn config(dir: &Path, socket: &Path) -> std::path::PathBuf {
 }
 
 fn start(config: &Path, stats: &Path) -> Proc {
+    let log = std::fs::File::create(config.with_extension("log")).unwrap();
     Proc(
         Command::new(env!("CARGO_BIN_EXE_mgmot"))
             .args(["run", "--config"])
@@ -46,10 +47,15 @@ fn start(config: &Path, stats: &Path) -> Proc {
             .arg("--stats-json")
             .arg(stats)
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(log)
             .spawn()
             .unwrap(),
     )
+}
+
+/// mgmot's log of the run started with `config`.
+fn log_of(config: &Path) -> String {
+    std::fs::read_to_string(config.with_extension("log")).unwrap_or_default()
 }
 
 fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
@@ -67,14 +73,16 @@ fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
     }
 }
 
-/// Sends frames `0..n` (their own numbering), 64x36, 30 fps stamps.
-fn send_frames(s: &mut UnixStream, n: u64) {
+/// Sends frames `0..n` (their own numbering), 64x36, 30 fps stamps; a failed write fails
+/// the test with mgmot's log.
+fn send_frames(s: &mut UnixStream, n: u64, config: &Path) {
     let (w, h) = (64u32, 36u32);
     let px = vec![90u8; (w * h * 3) as usize];
     for k in 0..n {
         let hdr = FrameHeader::rgb24(k, 1_000_000 + k * 33_333, w, h);
-        s.write_all(&hdr.encode()).unwrap();
-        s.write_all(&px).unwrap();
+        if let Err(e) = s.write_all(&hdr.encode()).and_then(|()| s.write_all(&px)) {
+            panic!("frame {k}: {e}; mgmot: {}", log_of(config));
+        }
         std::thread::sleep(Duration::from_millis(10));
     }
 }
@@ -112,17 +120,18 @@ fn a_cut_stream_is_reconnected_and_restarted_numbering_is_tracked() {
     let socket = dir.path().join("frames.sock");
     let listener = UnixListener::bind(&socket).unwrap();
     let stats_path = dir.path().join("stats.json");
-    let mut mgmot = start(&config(dir.path(), &socket), &stats_path);
+    let cfg = config(dir.path(), &socket);
+    let mut mgmot = start(&cfg, &stats_path);
 
     let mut s = accept(&listener, Duration::from_secs(20));
-    send_frames(&mut s, 20);
+    send_frames(&mut s, 20, &cfg);
     drop(s); // cut: no end-of-stream header
     assert!(
         wait_exit(&mut mgmot, Duration::from_millis(1500)).is_none(),
         "mgmot exited when the frame stream was cut"
     );
     let mut s = accept(&listener, Duration::from_secs(10));
-    send_frames(&mut s, 20); // numbered from 0 again
+    send_frames(&mut s, 20, &cfg); // numbered from 0 again
     s.write_all(&end_of_stream()).unwrap();
     let status = wait_exit(&mut mgmot, Duration::from_secs(20)).expect("mgmot did not end");
     assert!(status.success(), "{status:?}");
@@ -140,9 +149,10 @@ fn sigterm_ends_mgmot_while_the_source_is_frozen() {
     let socket = dir.path().join("frames.sock");
     let listener = UnixListener::bind(&socket).unwrap();
     let stats_path = dir.path().join("stats.json");
-    let mut mgmot = start(&config(dir.path(), &socket), &stats_path);
+    let cfg = config(dir.path(), &socket);
+    let mut mgmot = start(&cfg, &stats_path);
     let mut s = accept(&listener, Duration::from_secs(20));
-    send_frames(&mut s, 3);
+    send_frames(&mut s, 3, &cfg);
     // Frozen from here: the connection stays open, nothing more is sent.
     std::thread::sleep(Duration::from_millis(300));
     let asked = Instant::now();
@@ -156,4 +166,43 @@ fn sigterm_ends_mgmot_while_the_source_is_frozen() {
     );
     assert!(stats_path.exists(), "no stats written");
     drop(s);
+}
+
+/// Item 13: a frame socket the user running mgmot may not open is named at start-up, with
+/// the reason, and mgmot exits with an error, instead of reporting "camera lost" for ever.
+/// As root (which may open anything) the check runs mgmot as `nobody` with setpriv.
+#[test]
+fn an_unopenable_frame_socket_is_named_at_start_up() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+    let socket = dir.path().join("frames.sock");
+    let _listener = UnixListener::bind(&socket).unwrap();
+    std::fs::set_permissions(&socket, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let cfg = config(dir.path(), &socket);
+    for f in [&cfg, &dir.path().join("dets.json")] {
+        std::fs::set_permissions(f, std::fs::Permissions::from_mode(0o644)).unwrap();
+    }
+    let root = rustix::process::geteuid().is_root();
+    let mut cmd = if root {
+        let mut c = Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(env!("CARGO_BIN_EXE_mgmot"));
+        c
+    } else {
+        std::fs::set_permissions(&socket, std::fs::Permissions::from_mode(0o000)).unwrap();
+        Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    };
+    let out = cmd
+        .args(["run", "--config"])
+        .arg(&cfg)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "mgmot ran: {err}");
+    assert!(
+        err.contains("frames.socket") && err.contains("frames.sock") && err.contains("ermission"),
+        "{err}"
+    );
 }

@@ -50,6 +50,7 @@ pub(super) fn start(
     captured: Arc<AtomicU64>,
     mut report: impl FnMut(CameraStatus) + Send + 'static,
 ) -> Result<JoinHandle<()>, PipelineError> {
+    check_access(frames)?;
     let backoff = |initial_ms: u64, max_ms: u64| {
         Backoff::new(
             Duration::from_millis(initial_ms),
@@ -194,6 +195,35 @@ impl IndexRebase {
         self.last = Some(mapped);
         mapped
     }
+}
+
+/// A frame source that exists but that this user may not open is named at start-up, with the
+/// reason, instead of being retried for ever as "camera lost". One that does not exist yet (a
+/// camera not plugged in, a simulator not started) is left to the reconnect loop.
+fn check_access(frames: &FramesConfig) -> Result<(), PipelineError> {
+    let (path, key, hint) = match frames {
+        FramesConfig::Sim { socket, .. } => (
+            socket,
+            "frames.socket",
+            "the user running mgmot needs write access to the socket",
+        ),
+        FramesConfig::V4l2 { device, .. } => (
+            device,
+            "frames.device",
+            "the user running mgmot needs read and write access (usually the `video` group)",
+        ),
+        FramesConfig::Images { .. } => return Ok(()),
+    };
+    if !path.exists() {
+        return Ok(());
+    }
+    use rustix::fs::{access, Access};
+    access(path.as_path(), Access::READ_OK | Access::WRITE_OK).map_err(|e| {
+        PipelineError::Frames(CameraError::Unsupported {
+            device: path.clone(),
+            problem: format!("{key}: cannot be opened: {e} ({hint})"),
+        })
+    })
 }
 
 /// (Re)opens the configured frame source; the argument is the index its first frame gets.

@@ -239,7 +239,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
                         t.clock.observe_timesync(sent, autopilot, at);
                         continue;
                     }
-                    LinkEvent::Message(r) => r,
+                    LinkEvent::Message(r) => *r,
                 };
                 if let MavMessage::MOUNT_STATUS(_) = &msg {
                     if let Some(ap) = t.clock.to_autopilot(now) {
@@ -411,12 +411,15 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     // The capture thread notices shutdown between frames; one blocked in a read of a frozen
     // source gives up at its read timeout. Shutdown never waits on it for longer than this:
     // the thread is left to end with the process.
-    let joined = tokio::time::timeout(
-        CAPTURE_JOIN_TIMEOUT,
-        tokio::task::spawn_blocking(move || capture.join()),
-    )
-    .await;
-    if joined.is_err() {
+    // (Polled, not joined on a blocking task: the runtime waits for its blocking tasks when
+    // it is dropped, which would bring the wait back.)
+    let deadline = Instant::now() + CAPTURE_JOIN_TIMEOUT;
+    while !capture.is_finished() && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    if capture.is_finished() {
+        let _ = capture.join();
+    } else {
         tracing::warn!("the capture thread is blocked in a read; not waiting for it");
     }
     stats.frames_captured = captured.load(Ordering::Relaxed);
@@ -468,6 +471,7 @@ fn infer(
     let mut geolocator: Option<Geolocator> = None;
     let mut previous_meta: Option<FrameMetadata> = None;
     let mut last_frame_index: Option<u64> = None;
+    let mut last_time_s: Option<f64> = None;
     let mut no_pose_reported = false;
     let mut detector_health = ConditionReport::new(Condition::Detector);
     loop {
@@ -596,7 +600,14 @@ fn infer(
             (Some(p), Some(c)) => p.image_motion_to(c).ok(),
             _ => None,
         };
-        let time_s = frame_time.map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6);
+        // The tracker's clock only goes forward: a source that restarted (its clock from 0
+        // again, a new session) continues just after the last frame's time.
+        let raw_time_s = frame_time.map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6);
+        let time_s = match last_time_s {
+            Some(last) if raw_time_s < last => last + 1e-3,
+            _ => raw_time_s,
+        };
+        last_time_s = Some(time_s);
         let input = FrameInput {
             frame_index: index,
             time_s,

@@ -50,7 +50,22 @@ impl FrameParser {
         self.pending.clear();
     }
 
-    /// Adds `bytes` and returns every frame they complete.
+    /// Parses one whole datagram: frames never span datagrams, so a start byte whose frame
+    /// would run past the end is garbage, skipped, and parsing goes on after it. Nothing is
+    /// kept for the next datagram.
+    pub fn push_datagram(&mut self, bytes: &[u8]) -> Vec<MAVLinkMessageRaw> {
+        self.pending.clear();
+        let mut frames = self.push(bytes);
+        while !self.pending.is_empty() {
+            self.pending.remove(0);
+            self.counters.skipped_bytes += 1;
+            frames.extend(self.push(&[]));
+        }
+        frames
+    }
+
+    /// Adds `bytes` of a stream and returns every frame they complete; a partial frame waits
+    /// for the next bytes.
     pub fn push(&mut self, bytes: &[u8]) -> Vec<MAVLinkMessageRaw> {
         self.pending.extend_from_slice(bytes);
         let mut frames = Vec::new();
@@ -148,7 +163,7 @@ mod tests {
         });
         let mut stream = vec![0x00, 0xFD, 0x03];
         stream.extend(bytes(&hb, MavlinkVersion::V2));
-        stream.extend([0xFE, 0xFE, 0x11]);
+        stream.extend([0x11, 0x22]);
         stream.extend(bytes(&st, MavlinkVersion::V1));
         stream.extend(bytes(&st, MavlinkVersion::V2));
         for split in 0..stream.len() {
@@ -160,6 +175,24 @@ mod tests {
             let parsed = MavMessage::parse(got[1].version(), 2, got[1].payload()).unwrap();
             assert_eq!(parsed, st);
         }
+    }
+
+    /// In a datagram, a stray start byte announcing a frame longer than what is left does not
+    /// hide the frames after it.
+    #[test]
+    fn a_datagram_with_a_stray_start_byte_keeps_its_frames() {
+        let st = MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+            time_unix_usec: 42,
+            time_boot_ms: 9,
+        });
+        let mut d = vec![0xFE, 0xFE, 0x11];
+        d.extend(bytes(&st, MavlinkVersion::V1));
+        d.extend([0xFD, 0xF0]);
+        d.extend(bytes(&st, MavlinkVersion::V2));
+        let mut p = FrameParser::new();
+        let got = p.push_datagram(&d);
+        assert_eq!(got.len(), 2);
+        assert!(p.pending.is_empty());
     }
 
     #[test]

@@ -137,8 +137,9 @@ pub struct Received {
 /// What the link hands the pipeline.
 #[derive(Debug, Clone)]
 pub enum LinkEvent {
-    /// A message from the autopilot (telemetry), the vehicle's gimbal, or a command.
-    Message(Received),
+    /// A message from the autopilot (telemetry), the vehicle's gimbal, or a command (boxed:
+    /// a message is large, the other variants small).
+    Message(Box<Received>),
     /// A TIMESYNC round trip answering one of our requests, from the autopilot.
     TimeSync {
         /// Our request's companion time.
@@ -436,12 +437,14 @@ impl LinkTask {
                     }
                     got = conn.recv(&mut buf) => match got {
                         Transported::Bytes(bytes, from) => {
-                            for raw in parser.push(&bytes) {
+                            // A datagram holds whole frames; a stream may split them.
+                            let frames = if from.is_some() {
+                                parser.push_datagram(&bytes)
+                            } else {
+                                parser.push(&bytes)
+                            };
+                            for raw in frames {
                                 self.handle(raw, from, &mut conn).await;
-                            }
-                            // A datagram holds whole frames: nothing carries over.
-                            if from.is_some() {
-                                parser.reset();
                             }
                         }
                         Transported::Closed => {
@@ -786,13 +789,13 @@ impl LinkTask {
             }
             _ => {}
         }
-        self.emit(LinkEvent::Message(Received {
+        self.emit(LinkEvent::Message(Box::new(Received {
             message,
             system_id,
             component_id,
             signed,
             at,
-        }));
+        })));
     }
 
     fn emit(&mut self, e: LinkEvent) {

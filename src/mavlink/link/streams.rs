@@ -35,6 +35,9 @@ struct Stream {
     last_seen: Option<Duration>,
     next_request: Duration,
     retry: Duration,
+    /// Ask even if messages flow: at the start and after a reboot the autopilot may send the
+    /// stream at its own default rate, not the one asked for.
+    force: bool,
 }
 
 /// The request bookkeeping of every stream. Times are durations since the link started.
@@ -78,6 +81,7 @@ impl StreamRequests {
                     last_seen: None,
                     next_request: Duration::ZERO,
                     retry: RETRY_INITIAL,
+                    force: true,
                 })
                 .collect(),
             outstanding: None,
@@ -131,6 +135,7 @@ impl StreamRequests {
             s.last_seen = None;
             s.next_request = now;
             s.retry = RETRY_INITIAL;
+            s.force = true;
         }
     }
 
@@ -172,8 +177,9 @@ impl StreamRequests {
             })
             .collect();
         let (i, s) = self.streams.iter_mut().enumerate().find(|(i, s)| {
-            s.state != StreamState::Refused && !flowing[*i] && now >= s.next_request
+            s.state != StreamState::Refused && (s.force || !flowing[*i]) && now >= s.next_request
         })?;
+        s.force = false;
         s.next_request = now + s.retry;
         s.retry = (s.retry * 2).min(RETRY_MAX);
         self.outstanding = Some((i, now));
@@ -206,6 +212,22 @@ mod tests {
         // 33 stops flowing: asked again after its window and back-off.
         r.seen(30, S(4000));
         assert_eq!(r.poll(S(4000)).map(|q| q.message_id), Some(33));
+    }
+
+    #[test]
+    fn a_stream_flowing_at_the_autopilot_default_is_still_asked_for_at_start_and_after_a_reboot() {
+        let mut r = StreamRequests::new(&[(33, 50.0)]);
+        r.seen(33, S(0));
+        assert!(r.poll(S(0)).is_some(), "asked at start although it flows");
+        r.ack(AckOutcome::Accepted, S(5));
+        r.seen(33, S(100));
+        assert_eq!(r.poll(S(200)), None);
+        r.reset(S(300));
+        r.seen(33, S(300));
+        assert!(
+            r.poll(S(300)).is_some(),
+            "asked after the reboot although it flows"
+        );
     }
 
     #[test]
