@@ -95,61 +95,80 @@ pub struct Relay {
     /// A clone of the socket that talks to mgmot.
     pub to_mgmot: UdpSocket,
     stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
+    threads: Vec<JoinHandle<()>>,
 }
 
 impl Relay {
     /// Starts relaying to mgmot at `127.0.0.1:mgmot_port`.
     pub fn start(mgmot_port: u16) -> Relay {
+        // One thread per direction, each blocking on its socket (the timeout only lets it see
+        // `stop`): at 50 Hz per stream the simulator sends a few hundred datagrams a second,
+        // and one thread polling both sockets in turn fell behind on a loaded machine.
         let up = UdpSocket::bind("127.0.0.1:0").unwrap();
         let down = UdpSocket::bind("127.0.0.1:0").unwrap();
-        up.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
-        down.set_read_timeout(Some(Duration::from_millis(1)))
+        up.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+        down.set_read_timeout(Some(Duration::from_millis(50)))
             .unwrap();
         let listen_port = up.local_addr().unwrap().port();
         let to_mgmot = down.try_clone().unwrap();
         let sent = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
-        let (log, s) = (sent.clone(), stop.clone());
-        let thread = std::thread::spawn(move || {
-            let mut sim = None;
-            let mut buf = [0u8; 65536];
-            while !s.load(Ordering::Relaxed) {
-                if let Ok((n, from)) = up.recv_from(&mut buf) {
-                    sim = Some(from);
-                    let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
-                }
-                if let Ok(n) = down.recv(&mut buf) {
-                    if let Some(sim) = sim {
-                        let _ = up.send_to(&buf[..n], sim);
-                    }
-                    let mut reader = MavlinkReader::new(&buf[..n]);
-                    while let Ok((header, msg)) =
-                        reader.read_message::<MavMessage>(MavlinkVersion::V2)
-                    {
-                        log.lock().unwrap().push(Sent {
-                            bytes: buf[..n].to_vec(),
-                            header,
-                            msg,
-                        });
+        let sim: Arc<Mutex<Option<std::net::SocketAddr>>> = Arc::new(Mutex::new(None));
+        let upstream = {
+            let (up, down, s, sim) = (
+                up.try_clone().unwrap(),
+                down.try_clone().unwrap(),
+                stop.clone(),
+                sim.clone(),
+            );
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 65536];
+                while !s.load(Ordering::Relaxed) {
+                    if let Ok((n, from)) = up.recv_from(&mut buf) {
+                        *sim.lock().unwrap() = Some(from);
+                        let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
                     }
                 }
-            }
-        });
+            })
+        };
+        let downstream = {
+            let (log, s) = (sent.clone(), stop.clone());
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 65536];
+                while !s.load(Ordering::Relaxed) {
+                    if let Ok(n) = down.recv(&mut buf) {
+                        let to_sim = *sim.lock().unwrap();
+                        if let Some(to_sim) = to_sim {
+                            let _ = up.send_to(&buf[..n], to_sim);
+                        }
+                        let mut reader = MavlinkReader::new(&buf[..n]);
+                        while let Ok((header, msg)) =
+                            reader.read_message::<MavMessage>(MavlinkVersion::V2)
+                        {
+                            log.lock().unwrap().push(Sent {
+                                bytes: buf[..n].to_vec(),
+                                header,
+                                msg,
+                            });
+                        }
+                    }
+                }
+            })
+        };
         Relay {
             sent,
             listen_port,
             mgmot_port,
             to_mgmot,
             stop,
-            thread: Some(thread),
+            threads: vec![upstream, downstream],
         }
     }
 
     /// Stops relaying; everything mgmot sent.
     pub fn finish(mut self) -> Vec<Sent> {
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
+        for t in self.threads.drain(..) {
             t.join().unwrap();
         }
         std::mem::take(&mut *self.sent.lock().unwrap())
@@ -159,7 +178,7 @@ impl Relay {
 impl Drop for Relay {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
+        for t in self.threads.drain(..) {
             let _ = t.join();
         }
     }
