@@ -1,7 +1,11 @@
 //! `mgmot check-config`: load and validate a runtime configuration without running anything.
 
+use super::stdout::Stdout;
+use anyhow::Context;
 use clap::Args as ClapArgs;
 use mgmot::config::{Config, FramesConfig};
+use mgmot::formats::input::{self, InputKind};
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Check a runtime configuration file (TOML) and print what it sets up.
@@ -13,6 +17,9 @@ pub struct Args {
 
 /// Runs the subcommand: prints a summary, or fails with every problem found.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // `Config::load` reads whatever the path names; refuse devices, FIFOs and huge files
+    // first (a FIFO without a writer would block, /dev/zero would fill memory).
+    input::open(&args.file, InputKind::Config).with_context(|| args.file.display().to_string())?;
     let config = Config::load(&args.file)?;
     let frames = match &config.frames {
         FramesConfig::V4l2 {
@@ -31,8 +38,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             format!("images in {} @ {fps} fps", directory.display())
         }
     };
-    println!("{}: ok", args.file.display());
-    println!(
+    let mut out = Stdout::lock();
+    writeln!(out, "{}: ok", args.file.display())?;
+    writeln!(
+        out,
         "  mavlink: {} as {}/{}{}",
         config.mavlink.connection,
         config.mavlink.system_id,
@@ -42,9 +51,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else {
             ""
         }
-    );
-    println!("  frames: {frames}");
-    println!(
+    )?;
+    writeln!(out, "  frames: {frames}")?;
+    writeln!(
+        out,
         "  outputs: tracks at {} Hz{}, heartbeat at {} Hz",
         config.outputs.track_rate_hz,
         if config.outputs.target_absolute {
@@ -53,6 +63,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ""
         },
         config.outputs.heartbeat_hz
-    );
+    )?;
     Ok(())
 }

@@ -6,8 +6,11 @@
 //! `OUT/detections.json` with `--out`, where it also draws the boxes on a copy
 //! of each image.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use super::args::Finite;
+use super::stdout::Stdout;
 use anyhow::{bail, Context};
 use clap::Args as ClapArgs;
 use image::{Rgb, RgbImage};
@@ -54,26 +57,27 @@ pub struct Args {
     /// Folder for detections.json and the images with their boxes drawn.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Minimum class score.
-    #[arg(long, default_value_t = 0.25)]
+    /// Minimum class score, in [0, 1].
+    #[arg(long, default_value_t = 0.25, value_parser = Finite::non_negative(1.0).f32())]
     score: f32,
-    /// IoU threshold of the class-aware NMS.
-    #[arg(long, default_value_t = mgmot::detect::DEFAULT_NMS_IOU)]
+    /// IoU threshold of the class-aware NMS, in [0, 1].
+    #[arg(long, default_value_t = mgmot::detect::DEFAULT_NMS_IOU, value_parser = Finite::non_negative(1.0).f32())]
     nms_iou: f32,
-    /// IoU threshold of the larger-box-priority suppression (1 turns it off).
-    #[arg(long, default_value_t = 0.7)]
+    /// IoU threshold of the larger-box-priority suppression, in [0, 1] (1 turns it off).
+    #[arg(long, default_value_t = 0.7, value_parser = Finite::non_negative(1.0).f32())]
     larger_box_iou: f32,
     /// Split large frames into overlapping tiles at native resolution.
     #[arg(long)]
     tile: bool,
-    /// Side of square tiles in pixels (default: tiles of the model's input size, width x height).
-    #[arg(long)]
+    /// Side of square tiles in pixels, 1 to 16384, the largest image side decoders handle
+    /// here (default: tiles of the model's input size, width x height).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     tile_size: Option<u32>,
-    /// Overlap between tiles in pixels.
-    #[arg(long, default_value_t = 64)]
+    /// Overlap between tiles in pixels, at most 16384 (capped below the tile size).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(0..=16384))]
     tile_overlap: u32,
-    /// Inference threads.
-    #[arg(long, default_value_t = 2)]
+    /// Inference threads, 1 to 256 (more threads than cores only adds contention).
+    #[arg(long, default_value_t = 2, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=256))]
     threads: usize,
     /// Comma-separated class names overriding the model's metadata.
     #[arg(long, value_delimiter = ',')]
@@ -122,15 +126,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let mut detector = Detector::load(config)?;
     let names = detector.model().class_names.clone();
+    let mut stdout = Stdout::lock();
     if !args.json {
-        println!(
+        writeln!(
+            stdout,
             "{}: backend {}, input {}x{}, classes {}",
             args.model.display(),
             detector.backend(),
             detector.model().input_width_px,
             detector.model().input_height_px,
             names.join(",")
-        );
+        )?;
     }
     if let Some(out) = &args.out {
         std::fs::create_dir_all(out)
@@ -152,9 +158,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         if !args.json {
-            println!("{}: {} detections", path.display(), dets.len());
+            writeln!(stdout, "{}: {} detections", path.display(), dets.len())?;
             for d in &dets {
-                println!(
+                writeln!(
+                    stdout,
                     "  {:<10} {:.3}  x={:.1} y={:.1} w={:.1} h={:.1}",
                     class_name(&names, d.class_id),
                     d.score,
@@ -162,7 +169,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     d.bbox.y_px,
                     d.bbox.w_px,
                     d.bbox.h_px
-                );
+                )?;
             }
         }
         if let Some(out) = &args.out {
@@ -188,7 +195,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let json = serde_json::to_string_pretty(&results)?;
     if args.json {
-        println!("{json}");
+        writeln!(stdout, "{json}")?;
     }
     if let Some(out) = &args.out {
         let target = out.join("detections.json");
@@ -221,6 +228,8 @@ fn list_images(input: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut images: Vec<PathBuf> = std::fs::read_dir(input)
         .with_context(|| format!("cannot list {}", input.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
+        // Regular files only: a FIFO named `x.png` would block the decoder.
+        .filter(|p| p.is_file())
         .filter(|p| {
             p.extension()
                 .and_then(|e| e.to_str())

@@ -2,8 +2,10 @@
 //! ground truth, computed as TrackEval does (see `mgmot::eval`).
 
 use std::collections::BTreeMap;
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use super::stdout::Stdout;
 use anyhow::{bail, Context};
 use mgmot::eval::{
     combine_classes_class_averaged, combine_sequences, evaluate_sequence, Annotation,
@@ -59,10 +61,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Output::Single(evaluate_all(&sequences, ClassSelection::All, is_folder)?)
     };
+    let mut stdout = Stdout::lock();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&output)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&output)?)?;
     } else {
-        print_tables(&output);
+        print_tables(&mut stdout, &output)?;
     }
     Ok(())
 }
@@ -214,16 +217,16 @@ fn evaluate_per_class(sequences: &[LoadedSequence], is_folder: bool) -> anyhow::
     })
 }
 
-fn print_tables(output: &Output) {
+fn print_tables(out: &mut impl Write, output: &Output) -> io::Result<()> {
     match output {
-        Output::Single(e) => print_evaluation(None, e),
+        Output::Single(e) => print_evaluation(out, None, e),
         Output::PerClass {
             classes,
             class_averaged,
             detection_averaged,
         } => {
             for (c, e) in classes {
-                print_evaluation(Some(&format!("class {c}")), e);
+                print_evaluation(out, Some(&format!("class {c}")), e)?;
             }
             let mut rows = Vec::new();
             if let Some(s) = class_averaged {
@@ -233,16 +236,17 @@ fn print_tables(output: &Output) {
                 rows.push(("detection averaged".to_owned(), *s));
             }
             if !rows.is_empty() {
-                print_rows("all classes", &rows);
+                print_rows(out, "all classes", &rows)?;
             }
+            Ok(())
         }
     }
 }
 
-fn print_evaluation(title: Option<&str>, e: &Evaluation) {
+fn print_evaluation(out: &mut impl Write, title: Option<&str>, e: &Evaluation) -> io::Result<()> {
     let title = title.unwrap_or("all objects");
     match e {
-        Evaluation::File(s) => print_rows(title, &[("COMBINED".to_owned(), *s)]),
+        Evaluation::File(s) => print_rows(out, title, &[("COMBINED".to_owned(), *s)]),
         Evaluation::Folder {
             sequences,
             combined,
@@ -250,14 +254,14 @@ fn print_evaluation(title: Option<&str>, e: &Evaluation) {
             let mut rows: Vec<(String, Summary)> =
                 sequences.iter().map(|(n, s)| (n.clone(), *s)).collect();
             rows.push(("COMBINED".to_owned(), *combined));
-            print_rows(title, &rows);
+            print_rows(out, title, &rows)
         }
     }
 }
 
 /// Prints three blocks (HOTA, CLEAR, Identity), one row per sequence; ratios
 /// as fractions with four decimals.
-fn print_rows(title: &str, rows: &[(String, Summary)]) {
+fn print_rows(out: &mut impl Write, title: &str, rows: &[(String, Summary)]) -> io::Result<()> {
     let width = rows
         .iter()
         .map(|(n, _)| n.len())
@@ -309,15 +313,16 @@ fn print_rows(title: &str, rows: &[(String, Summary)]) {
         for (name, _) in columns {
             header.push_str(&format!(" {name:>9}"));
         }
-        println!("{header}");
+        writeln!(out, "{header}")?;
         for (name, s) in rows {
             let mut line = format!("{name:<width$}");
             for (_, cell) in columns {
                 line.push(' ');
                 line.push_str(&cell(s));
             }
-            println!("{line}");
+            writeln!(out, "{line}")?;
         }
-        println!();
+        writeln!(out)?;
     }
+    Ok(())
 }

@@ -1,6 +1,8 @@
 //! `mgmot geolocate`: every box of a SeaDronesSee file (ground truth or detections) to the
 //! sea surface.
 
+use super::args::Finite;
+use super::stdout::Stdout;
 use anyhow::{bail, Context};
 use clap::Args as ClapArgs;
 use mgmot::formats::geopoints::{write_geo_rows, GeoFormat, GeoRow};
@@ -8,7 +10,18 @@ use mgmot::formats::{coco, seadronessee};
 use mgmot::geo::{CameraModel, Geolocator, Pixel, PoseNoise};
 use serde::Serialize;
 use std::collections::HashMap;
+use std::io::Write;
 use std::path::PathBuf;
+
+/// Largest attitude noise (deg): the position std is a first-order propagation about the
+/// reported pose, which stops meaning anything long before the ray could swing past the
+/// horizon; 45 deg is far beyond any gimbal's error.
+const MAX_ATTITUDE_STD_DEG: f64 = 45.0;
+/// Largest altitude noise (m): well above any drone's flying height (120 m in the EU's open
+/// category).
+const MAX_ALTITUDE_STD_M: f64 = 1000.0;
+/// Largest pixel noise (px): wider than any frame.
+const MAX_PIXEL_STD_PX: f64 = 10_000.0;
 
 /// Geolocate boxes on the sea surface from the drone's per-frame metadata.
 ///
@@ -22,20 +35,24 @@ pub struct Args {
     /// COCO results JSON: geolocate these detections instead of the annotations.
     #[arg(long)]
     detections: Option<PathBuf>,
-    /// Horizontal field of view of the camera (deg); 70 fits SeaDronesSee's DJI footage.
-    #[arg(long, default_value_t = 70.0)]
+    /// Horizontal field of view of the camera (deg, in (0, 180)); 70 fits SeaDronesSee's DJI
+    /// footage.
+    #[arg(long, default_value_t = 70.0, value_parser = Finite::between(0.0, 180.0).f64())]
     fov_deg: f64,
     /// Output file: .csv or .geojson.
     #[arg(long)]
     out: PathBuf,
-    /// Attitude noise for the position std (deg).
-    #[arg(long, default_value_t = PoseNoise::default().attitude_std_deg)]
+    /// Attitude noise for the position std (deg, 0 to 45).
+    #[arg(long, default_value_t = PoseNoise::default().attitude_std_deg,
+          value_parser = Finite::non_negative(MAX_ATTITUDE_STD_DEG).f64())]
     attitude_std_deg: f64,
-    /// Altitude noise for the position std (m).
-    #[arg(long, default_value_t = PoseNoise::default().altitude_std_m)]
+    /// Altitude noise for the position std (m, 0 to 1000).
+    #[arg(long, default_value_t = PoseNoise::default().altitude_std_m,
+          value_parser = Finite::non_negative(MAX_ALTITUDE_STD_M).f64())]
     altitude_std_m: f64,
-    /// Box-centre pixel noise for the position std (px).
-    #[arg(long, default_value_t = PoseNoise::default().pixel_std_px)]
+    /// Box-centre pixel noise for the position std (px, 0 to 10000).
+    #[arg(long, default_value_t = PoseNoise::default().pixel_std_px,
+          value_parser = Finite::non_negative(MAX_PIXEL_STD_PX).f64())]
     pixel_std_px: f64,
     /// Print a machine-readable summary on stdout.
     #[arg(long)]
@@ -160,15 +177,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tracing::info!(image_id = s.image_id, id = s.id, reason = %s.reason, "box not geolocated");
     }
     write_geo_rows(&args.out, &rows)?;
+    let mut stdout = Stdout::lock();
     if args.json {
         let summary = serde_json::json!({
             "out": args.out,
             "located": rows.len(),
             "skipped": skipped,
         });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
-        println!(
+        writeln!(
+            stdout,
             "geolocated {} boxes -> {} ({} skipped{})",
             rows.len(),
             args.out.display(),
@@ -178,7 +197,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 "; run with -v to see why"
             }
-        );
+        )?;
     }
     if rows.is_empty() && !skipped.is_empty() {
         bail!("no box could be geolocated ({} skipped)", skipped.len());

@@ -4,11 +4,13 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod args;
 mod check_config;
 mod detect;
 mod eval;
 mod geolocate;
 mod run;
+mod stdout;
 mod track;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
@@ -52,6 +54,8 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout went away (`mgmot ... | head`): nothing to report.
+        Err(e) if stdout::is_closed(&e) => ExitCode::from(stdout::CLOSED_EXIT_CODE),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

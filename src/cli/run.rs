@@ -4,6 +4,7 @@ use anyhow::Context;
 use clap::Args as ClapArgs;
 use mgmot::config::Config;
 use mgmot::pipeline::{self, shutdown_signal};
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Run the onboard pipeline: MAVLink link, frames, detector, tracker, track messages.
@@ -23,6 +24,26 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = Config::load(&args.config)?;
+    // Opened (and emptied, so no stale stats survive a failed run) before the run starts: an
+    // unwritable path is an error now, not after a flight.
+    let mut stats_file = args
+        .stats_json
+        .as_ref()
+        .map(|path| {
+            std::fs::OpenOptions::new()
+                .write(true)
+                .create(true)
+                .truncate(true)
+                .open(path)
+                .map(|file| (path, file))
+                .with_context(|| {
+                    format!(
+                        "cannot open the --stats-json file {} for writing",
+                        path.display()
+                    )
+                })
+        })
+        .transpose()?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -51,9 +72,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             stats.detector_errors,
             stats.track_messages
         );
-        if let Some(path) = &args.stats_json {
+        if let Some((path, file)) = &mut stats_file {
             let json = serde_json::to_string_pretty(&stats).context("serialising the stats")?;
-            std::fs::write(path, json + "\n")
+            file.write_all((json + "\n").as_bytes())
+                .and_then(|()| file.flush())
                 .with_context(|| format!("writing the stats to {}", path.display()))?;
         }
         Ok(())

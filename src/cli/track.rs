@@ -1,11 +1,14 @@
 //! `mgmot track`: track every video of a SeaDronesSee file from its detections, offline or as
 //! the onboard (online) tracker would, and write MOTChallenge results plus geolocated tracks.
 
+use super::args::Finite;
+use super::stdout::Stdout;
 use anyhow::{bail, Context};
 use clap::{Args as ClapArgs, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mgmot::eval::BoxXywh;
 use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
+use mgmot::formats::input::{self, InputKind};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, PoseNoise};
@@ -17,7 +20,14 @@ use nalgebra::Vector3;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Component, Path, PathBuf};
+
+/// Largest metadata lag either way (s): SeaDronesSee's logs lag by about 1 s; a minute covers
+/// any clock offset between a camera and a flight log, and beyond it every frame of a short
+/// clip would get the clamped first or last record.
+const MAX_METADATA_LAG_S: f64 = 60.0;
+/// Highest frame rate (fps): above any camera a drone carries (high-speed modes reach 240).
+const MAX_FPS: f64 = 1000.0;
 
 /// Track each video of a SeaDronesSee file and geolocate the tracks.
 ///
@@ -46,16 +56,20 @@ pub struct Args {
     /// Tracker parameters (TOML, the keys of `TrackerParams`); defaults are the paper's.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Horizontal field of view of the camera (deg).
-    #[arg(long, default_value_t = 70.0)]
+    /// Horizontal field of view of the camera (deg, in (0, 180)).
+    #[arg(long, default_value_t = 70.0, value_parser = Finite::between(0.0, 180.0).f64())]
     fov_deg: f64,
-    /// How long the metadata lags the video (s): each metadata record describes the moment this
-    /// long before the frame it comes with; the pose is interpolated between records.
-    /// SeaDronesSee's DJI logs lag by about 1 s; simulator output has no lag.
-    #[arg(long, default_value_t = 0.0)]
+    /// How long the metadata lags the video (s, -60 to 60; negative: it leads): each metadata
+    /// record describes the moment this long before the frame it comes with; the pose is
+    /// interpolated between records. SeaDronesSee's DJI logs lag by about 1 s; simulator
+    /// output has no lag.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
+          value_parser = Finite::in_range(-MAX_METADATA_LAG_S, MAX_METADATA_LAG_S).f64())]
     metadata_lag_s: f64,
-    /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`.
-    #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS)]
+    /// Frame rate used to time frames from `source.frame_no` when images have no `date_time`
+    /// (fps, in (0, 1000]).
+    #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS,
+          value_parser = Finite::positive(MAX_FPS).f64())]
     fps: f64,
     /// Write each track's class id in column 8 of the MOTChallenge results (for
     /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
@@ -136,7 +150,7 @@ type Dets = Vec<(u32, [f64; 4], f64)>;
 pub fn run(args: Args) -> anyhow::Result<()> {
     let params = match &args.config {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
+            let text = input::read_to_string(path, InputKind::Config)
                 .with_context(|| format!("reading {}", path.display()))?;
             let p: TrackerParams = toml::from_str(&text)
                 .with_context(|| format!("{}: invalid tracker parameters", path.display()))?;
@@ -152,6 +166,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if sequences.is_empty() {
             bail!("no video named {name:?} in {}", args.annotations.display());
         }
+    }
+    for seq in &sequences {
+        check_output_name(&ds, seq)?;
     }
     let dets_by_image = load_detections(&args, &ds, &sequences)?;
     std::fs::create_dir_all(&args.out)
@@ -192,11 +209,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&summary)? + "\n",
     )
     .with_context(|| format!("writing {}", summary_path.display()))?;
+    let mut stdout = Stdout::lock();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
         for s in &summaries {
-            println!(
+            writeln!(
+                stdout,
                 "{}: {} frames, {} detections ({} geolocated), {} tracks, {} merges -> {}, {}",
                 s.video,
                 s.frames,
@@ -206,10 +225,56 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 s.merges.len(),
                 s.mot_results.display(),
                 s.geo_tracks.display()
-            );
+            )?;
         }
     }
     Ok(())
+}
+
+/// Checks that a video's name can name its output files: `DIR/<video>.txt` and
+/// `DIR/<video>_tracks.csv` must stay inside `--out`.
+///
+/// The name comes from the input (`videos[].name`, `source.folder_name` or the stem of
+/// `source.video`) and must be a single plain path component: not empty, not `.` or `..`, no
+/// `/` (so not absolute either). Other names are refused, with an error naming the video and
+/// the field it came from, rather than sanitised: a rewritten name could collide with another
+/// video's and silently overwrite its results, and the user would not find the files under the
+/// name their data gives.
+fn check_output_name(ds: &Dataset, seq: &Sequence) -> anyhow::Result<()> {
+    let name = seq.name.as_str();
+    let mut components = Path::new(name).components();
+    let single = matches!(
+        (components.next(), components.next()),
+        (Some(Component::Normal(c)), None) if c == name
+    );
+    if single && !name.contains('/') {
+        return Ok(());
+    }
+    let field = seq
+        .frames
+        .first()
+        .map(|f| {
+            let i = f.image_index;
+            let im = &ds.images[i];
+            let video = im.video_id.and_then(|vid| {
+                ds.videos
+                    .as_ref()
+                    .and_then(|vs| vs.iter().position(|v| v.id == vid))
+            });
+            let source = im.source.as_ref();
+            match video {
+                Some(k) => format!("videos[{k}].name"),
+                None if source.is_some_and(|s| s.folder_name.is_some()) => {
+                    format!("images[{i}].source.folder_name")
+                }
+                None => format!("images[{i}].source.video"),
+            }
+        })
+        .unwrap_or_else(|| "the video name".to_owned());
+    bail!(
+        "video {name:?} (from {field}): its name cannot name an output file inside --out; \
+         it must be a plain file name, not empty, `.` or `..`, without `/`"
+    )
 }
 
 /// Detections grouped by image id.

@@ -39,13 +39,37 @@ impl FormatError {
 
 /// Reads and deserialises a JSON file, reporting the JSON path and line of any error.
 pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, FormatError> {
-    let file = std::fs::File::open(path).map_err(|source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
+    let file = super::input::open(path, super::input::InputKind::Json).map_err(|source| {
+        FormatError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     })?;
     let reader = std::io::BufReader::new(file);
     let mut de = serde_json::Deserializer::from_reader(reader);
-    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+    deserialize_json(&mut de, path)
+}
+
+/// Deserialises JSON held in memory as [`read_json`] reads a file; `path` only names it in
+/// errors.
+pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(
+    bytes: &[u8],
+    path: &Path,
+) -> Result<T, FormatError> {
+    let mut de = serde_json::Deserializer::from_slice(bytes);
+    deserialize_json(&mut de, path)
+}
+
+/// Deserialises from `de`, reporting the JSON path and line of any error.
+fn deserialize_json<'de, T, R>(
+    de: &mut serde_json::Deserializer<R>,
+    path: &Path,
+) -> Result<T, FormatError>
+where
+    T: serde::de::DeserializeOwned,
+    R: serde_json::de::Read<'de>,
+{
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let location = e.path().to_string();
         let inner = e.into_inner();
         let location = if location == "." || location.is_empty() {

@@ -5,6 +5,7 @@
 pub mod coco;
 pub mod error;
 pub mod geopoints;
+pub mod input;
 pub mod mot;
 pub mod seadronessee;
 

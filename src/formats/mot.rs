@@ -26,6 +26,7 @@ use std::fmt::Write as _;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use super::input::{self, InputKind};
 use crate::eval::{Annotation, BoxXywh};
 
 /// Errors from reading MOTChallenge files and folders.
@@ -152,7 +153,7 @@ pub fn parse_str(text: &str, path: &Path) -> Result<Vec<MotRecord>, MotError> {
 /// Reads a MOTChallenge detection file (`det.txt`: `frame,-1,x,y,w,h,score[,class]`), where
 /// ids carry no meaning and may repeat within a frame.
 pub fn read_detections(path: &Path) -> Result<Vec<MotRecord>, MotError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MotError::Io {
+    let text = input::read_to_string(path, InputKind::MotText).map_err(|source| MotError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -218,7 +219,7 @@ fn check_unique_ids(records: &[MotRecord], lines: &[usize], path: &Path) -> Resu
 
 /// Reads and parses one MOTChallenge file.
 pub fn read_file(path: &Path) -> Result<Vec<MotRecord>, MotError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MotError::Io {
+    let text = input::read_to_string(path, InputKind::MotText).map_err(|source| MotError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -366,7 +367,7 @@ fn check_frames(path: &Path, records: &[MotRecord], len: &SeqLength) -> Result<(
     match records.iter().position(|r| r.frame > len.frames) {
         None => Ok(()),
         Some(i) => {
-            let line = std::fs::read_to_string(path)
+            let line = input::read_to_string(path, InputKind::MotText)
                 .ok()
                 .and_then(|t| {
                     t.lines()
@@ -473,7 +474,7 @@ fn warn_about_extra_results(pred_dir: &Path, sequences: &[SequenceFiles]) {
 /// Reads `seqLength` from the `[Sequence]` section of a MOTChallenge
 /// `seqinfo.ini`; `None` when the key is absent.
 fn read_seq_length(ini: &Path) -> Result<Option<SeqLength>, MotError> {
-    let text = std::fs::read_to_string(ini).map_err(io_err(ini))?;
+    let text = input::read_to_string(ini, InputKind::Config).map_err(io_err(ini))?;
     for (index, line) in text.lines().enumerate() {
         let Some((key, value)) = line.split_once('=') else {
             continue;

@@ -224,6 +224,35 @@ impl Default for OfflineParams {
     }
 }
 
+/// Upper bounds of the parameters that have no natural one. Values beyond them have no
+/// physical meaning for drone-borne maritime tracking, and the largest `f64`s make the
+/// filters overflow (a world acceleration std of 1e308 squared is infinite, and the tracks
+/// file filled with NaN).
+pub mod limits {
+    /// White-noise acceleration std, m/s^2: about 10 g. Swimmers barely accelerate and fast
+    /// boats and jetskis manoeuvre at well under 1 g; beyond this the world filter ignores its
+    /// motion model, and near 1e154 its process noise (`sigma^2 dt^4 / 4`) overflows.
+    pub const WORLD_ACCEL_STD_M_S2: f64 = 100.0;
+    /// Match gates (`tau_match_m`, `max_gate_m`), m: geolocation gives up on rays beyond
+    /// 10 km (see `geo`), so a wider gate links any two objects the camera can place.
+    pub const GATE_M: f64 = 10_000.0;
+    /// Extrapolation time `tau_memory_s`, s: an hour, longer than a multicopter flies.
+    pub const TAU_MEMORY_S: f64 = 3_600.0;
+    /// Gate expansion rate `lambda_per_s`, 1/s: at 10 /s the gate grows by ten `tau_match`
+    /// per second of gap and reaches any `max_gate_m` within seconds; faster rates change
+    /// nothing but invite overflow of `lambda * dt * tau_match`.
+    pub const LAMBDA_PER_S: f64 = 10.0;
+    /// Memory bank retention `memory_max_s`, s: a day, longer than any flight.
+    pub const MEMORY_MAX_S: f64 = 86_400.0;
+    /// Frame counts (`track_buffer_frames`, `interp_max_gap_frames`): a million frames is over
+    /// 9 h at 30 fps, longer than any flight. Interpolation creates a box for every frame of a
+    /// gap it fills, so the bound also caps what one bad value can allocate.
+    pub const FRAMES: u64 = 1_000_000;
+    /// Velocity window `window_frames`: 10 000 frames is over 5 min at 30 fps (the paper uses
+    /// 30); every track keeps up to this many observations at its head and tail.
+    pub const WINDOW_FRAMES: u32 = 10_000;
+}
+
 fn check(ok: bool, path: &str, requirement: &str) -> Result<(), TrackError> {
     if ok {
         Ok(())
@@ -235,16 +264,33 @@ fn check(ok: bool, path: &str, requirement: &str) -> Result<(), TrackError> {
     }
 }
 
+/// Checks that a float is finite and in `[min, max]`; the requirement names the range and the
+/// value found.
+fn check_range(v: f64, min: f64, max: f64, path: &str) -> Result<(), TrackError> {
+    check(
+        v.is_finite() && (min..=max).contains(&v),
+        path,
+        &format!("a finite number in [{min}, {max}], got {v}"),
+    )
+}
+
+/// Checks that a float is finite and in `(0, max]`.
+fn check_positive(v: f64, max: f64, path: &str) -> Result<(), TrackError> {
+    check(
+        v.is_finite() && v > 0.0 && v <= max,
+        path,
+        &format!("a finite number in (0, {max}], got {v}"),
+    )
+}
+
 fn unit(v: f64) -> bool {
     (0.0..=1.0).contains(&v)
 }
 
-fn positive(v: f64) -> bool {
-    v.is_finite() && v > 0.0
-}
-
 impl TrackerParams {
-    /// Checks every value; the error names the field by its path (`reid.classes.2.tau_match_m`).
+    /// Checks every value: finite, and within its meaningful range (see [`limits`] for the
+    /// bounds that are not natural ones). The error names the field by its path
+    /// (`reid.classes.2.tau_match_m`).
     pub fn validate(&self) -> Result<(), TrackError> {
         let b = &self.baseline;
         check(
@@ -263,9 +309,9 @@ impl TrackerParams {
             "in [0, 1]",
         )?;
         check(
-            b.track_buffer_frames > 0,
+            (1..=limits::FRAMES).contains(&b.track_buffer_frames),
             "baseline.track_buffer_frames",
-            "> 0",
+            &format!("in [1, {}]", limits::FRAMES),
         )?;
         check(unit(b.match_thresh), "baseline.match_thresh", "in [0, 1]")?;
         check(
@@ -286,19 +332,24 @@ impl TrackerParams {
         if let Some(t) = b.nms_iou_threshold {
             check(unit(t), "baseline.nms_iou_threshold", "in [0, 1]")?;
         }
-        check(
-            b.world_accel_std_m_s2.is_finite() && b.world_accel_std_m_s2 >= 0.0,
+        check_range(
+            b.world_accel_std_m_s2,
+            0.0,
+            limits::WORLD_ACCEL_STD_M_S2,
             "baseline.world_accel_std_m_s2",
-            ">= 0",
         )?;
         let r = &self.reid;
-        check(r.window_frames > 0, "reid.window_frames", "> 0")?;
+        check(
+            (1..=limits::WINDOW_FRAMES).contains(&r.window_frames),
+            "reid.window_frames",
+            &format!("in [1, {}]", limits::WINDOW_FRAMES),
+        )?;
         check(
             r.exit_border_fraction.is_finite() && (0.0..0.5).contains(&r.exit_border_fraction),
             "reid.exit_border_fraction",
             "in [0, 0.5)",
         )?;
-        check(positive(r.memory_max_s), "reid.memory_max_s", "> 0")?;
+        check_positive(r.memory_max_s, limits::MEMORY_MAX_S, "reid.memory_max_s")?;
         let classes = r
             .classes
             .iter()
@@ -308,27 +359,35 @@ impl TrackerParams {
                 &r.default_class,
             )));
         for (path, c) in classes {
-            check(
-                positive(c.tau_match_m),
+            check_positive(
+                c.tau_match_m,
+                limits::GATE_M,
                 &format!("{path}.tau_match_m"),
-                "> 0",
             )?;
-            check(
-                c.tau_memory_s.is_finite() && c.tau_memory_s >= 0.0,
+            check_range(
+                c.tau_memory_s,
+                0.0,
+                limits::TAU_MEMORY_S,
                 &format!("{path}.tau_memory_s"),
-                ">= 0",
             )?;
-            check(
-                c.lambda_per_s.is_finite() && c.lambda_per_s >= 0.0,
+            check_range(
+                c.lambda_per_s,
+                0.0,
+                limits::LAMBDA_PER_S,
                 &format!("{path}.lambda_per_s"),
-                ">= 0",
             )?;
-            check(
-                c.max_gate_m.is_finite() && c.max_gate_m >= c.tau_match_m,
+            check_range(
+                c.max_gate_m,
+                c.tau_match_m,
+                limits::GATE_M,
                 &format!("{path}.max_gate_m"),
-                ">= tau_match_m",
             )?;
         }
+        check(
+            self.offline.interp_max_gap_frames <= limits::FRAMES,
+            "offline.interp_max_gap_frames",
+            &format!("in [0, {}]", limits::FRAMES),
+        )?;
         Ok(())
     }
 }
@@ -366,6 +425,56 @@ mod tests {
         let s = serde_json::to_string(&p).unwrap();
         let q: TrackerParams = serde_json::from_str(&s).unwrap();
         assert_eq!(p, q);
+    }
+
+    /// A change that makes parameters invalid, and the key the error must name.
+    type Breaks = (&'static str, fn(&mut TrackerParams));
+
+    #[test]
+    fn validate_refuses_non_finite_and_overflowing_values() {
+        let cases: [Breaks; 10] = [
+            ("baseline.world_accel_std_m_s2", |p| {
+                p.baseline.world_accel_std_m_s2 = 1e308
+            }),
+            ("baseline.world_accel_std_m_s2", |p| {
+                p.baseline.world_accel_std_m_s2 = f64::NAN
+            }),
+            ("baseline.track_buffer_frames", |p| {
+                p.baseline.track_buffer_frames = u64::MAX
+            }),
+            ("reid.window_frames", |p| p.reid.window_frames = u32::MAX),
+            ("reid.memory_max_s", |p| p.reid.memory_max_s = f64::INFINITY),
+            ("reid.memory_max_s", |p| p.reid.memory_max_s = 1e300),
+            ("reid.default_class.tau_match_m", |p| {
+                p.reid.default_class.tau_match_m = 1e300
+            }),
+            ("reid.default_class.lambda_per_s", |p| {
+                p.reid.default_class.lambda_per_s = 1e300
+            }),
+            ("reid.classes.2.max_gate_m", |p| {
+                p.reid.classes.get_mut(&2).unwrap().max_gate_m = f64::INFINITY
+            }),
+            ("offline.interp_max_gap_frames", |p| {
+                p.offline.interp_max_gap_frames = u64::MAX
+            }),
+        ];
+        for (field, set) in cases {
+            let mut p = TrackerParams::default();
+            set(&mut p);
+            let e = p.validate().unwrap_err().to_string();
+            assert!(e.contains(field), "{field}: {e}");
+        }
+        // The bounds themselves are accepted.
+        let mut p = TrackerParams::default();
+        p.baseline.world_accel_std_m_s2 = limits::WORLD_ACCEL_STD_M_S2;
+        p.reid.default_class.tau_memory_s = limits::TAU_MEMORY_S;
+        p.reid.default_class.lambda_per_s = limits::LAMBDA_PER_S;
+        p.reid.default_class.max_gate_m = limits::GATE_M;
+        p.reid.memory_max_s = limits::MEMORY_MAX_S;
+        p.reid.window_frames = limits::WINDOW_FRAMES;
+        p.baseline.track_buffer_frames = limits::FRAMES;
+        p.offline.interp_max_gap_frames = limits::FRAMES;
+        p.validate().unwrap();
     }
 
     #[test]
