@@ -19,7 +19,7 @@ mod v4l2;
 pub use decode::{DecodeError, FrameLayout, PixelFormat, YuvMatrix, YuvRange};
 pub use images::{FrameClock, ImageDirectory, MonotonicClock};
 pub use reconnect::{Backoff, CameraStatus, Reconnect};
-pub use sim_socket::{SimFramingError, SimSocketSource};
+pub use sim_socket::{read_sim_frame, SimFramingError, SimSocketSource};
 pub use v4l2::{V4l2Settings, V4l2Source};
 
 use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};

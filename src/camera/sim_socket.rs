@@ -59,45 +59,51 @@ impl SimSocketSource {
     /// its run); a stream that closes without it is an error (the simulator was cut off), so
     /// the capture loop reconnects.
     pub fn read_frame(&mut self) -> Result<Option<Frame>, SimFramingError> {
-        let io = |path: &Path, source| SimFramingError::Io {
-            path: path.to_owned(),
-            source,
-        };
-        let header = |path: &Path, source| SimFramingError::Header {
-            path: path.to_owned(),
-            source,
-        };
-        let mut bytes = [0u8; HEADER_LEN];
-        match read_full(&mut self.stream, &mut bytes) {
-            Ok(true) => {}
-            Ok(false) => {
-                return Err(io(
-                    &self.path,
-                    std::io::Error::new(
-                        std::io::ErrorKind::UnexpectedEof,
-                        "the stream closed without its end-of-stream header",
-                    ),
-                ))
-            }
-            Err(e) => return Err(io(&self.path, e)),
-        }
-        if is_end_of_stream(&bytes) {
-            return Ok(None);
-        }
-        let h = FrameHeader::decode(&bytes).map_err(|e| header(&self.path, e))?;
-        let len = h.rgb24_len().map_err(|e| header(&self.path, e))?;
-        let mut rgb = vec![0u8; len];
-        self.stream
-            .read_exact(&mut rgb)
-            .map_err(|e| io(&self.path, e))?;
-        Ok(Some(Frame {
-            index: h.index,
-            captured: CaptureTime::Autopilot(AutopilotTimeUs(h.capture_time_us)),
-            width_px: h.width,
-            height_px: h.height,
-            rgb,
-        }))
+        read_sim_frame(&mut self.stream, &self.path)
     }
+}
+
+/// Reads the next frame of the simulator's frame stream from `stream`, as
+/// [`SimSocketSource::read_frame`] does from the socket; `path` only names the stream in
+/// errors. `Ok(None)` at the end-of-stream header; a stream that closes without it is an
+/// [`SimFramingError::Io`] (`UnexpectedEof`).
+pub fn read_sim_frame(
+    stream: &mut impl Read,
+    path: &Path,
+) -> Result<Option<Frame>, SimFramingError> {
+    let io = |source| SimFramingError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let header = |source| SimFramingError::Header {
+        path: path.to_owned(),
+        source,
+    };
+    let mut bytes = [0u8; HEADER_LEN];
+    match read_full(stream, &mut bytes) {
+        Ok(true) => {}
+        Ok(false) => {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "the stream closed without its end-of-stream header",
+            )))
+        }
+        Err(e) => return Err(io(e)),
+    }
+    if is_end_of_stream(&bytes) {
+        return Ok(None);
+    }
+    let h = FrameHeader::decode(&bytes).map_err(header)?;
+    let len = h.rgb24_len().map_err(header)?;
+    let mut rgb = vec![0u8; len];
+    stream.read_exact(&mut rgb).map_err(io)?;
+    Ok(Some(Frame {
+        index: h.index,
+        captured: CaptureTime::Autopilot(AutopilotTimeUs(h.capture_time_us)),
+        width_px: h.width,
+        height_px: h.height,
+        rgb,
+    }))
 }
 
 impl FrameSource for SimSocketSource {
@@ -231,6 +237,34 @@ mod tests {
             .unwrap_err();
         server.join().unwrap();
         assert!(matches!(e, CameraError::Sim(SimFramingError::Io { .. })));
+    }
+
+    #[test]
+    fn reads_frames_from_any_byte_stream() {
+        let mut bytes = Vec::new();
+        for k in 0..2u64 {
+            bytes.extend(FrameHeader::rgb24(k, 10 + k, 2, 1).encode());
+            bytes.extend([k as u8; 6]);
+        }
+        let cut = bytes.len();
+        bytes.extend(crate::camera::sim_framing::end_of_stream());
+        let mut stream = &bytes[..];
+        let path = Path::new("bytes");
+        for k in 0..2u64 {
+            let f = read_sim_frame(&mut stream, path).unwrap().unwrap();
+            assert_eq!((f.index, f.rgb), (k, vec![k as u8; 6]));
+        }
+        assert!(read_sim_frame(&mut stream, path).unwrap().is_none());
+        // Closed without the end-of-stream header: an error (the simulator was cut off).
+        let mut closed = &bytes[..cut];
+        for _ in 0..2 {
+            read_sim_frame(&mut closed, path).unwrap().unwrap();
+        }
+        let e = read_sim_frame(&mut closed, path).unwrap_err();
+        assert!(matches!(e, SimFramingError::Io { .. }), "{e}");
+        // A header cut short is an IO error, not the end of the stream.
+        let e = read_sim_frame(&mut &bytes[..20], path).unwrap_err();
+        assert!(matches!(e, SimFramingError::Io { .. }), "{e}");
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! `source.folder_name` / `source.video`, else into one sequence; within a sequence they are
 //! ordered by `source.frame_no` (else `frame_index`, else image id).
 
-use super::error::{read_json, FormatError};
+use super::error::{parse_json, read_json, FormatError};
 use crate::geo::{FrameMetadata, GeoError};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -14,6 +14,10 @@ use std::path::Path;
 /// Frame rate assumed for `source.frame_no` when images carry no `date_time` (DJI videos of
 /// the data set are 30 fps).
 pub const DEFAULT_VIDEO_FPS: f64 = 30.0;
+
+/// Largest height above the take-off point (m) a file may give, either sign: no drone flies
+/// 100 km up, and larger values could overflow when frames are interpolated.
+pub const MAX_HEIGHT_M: f64 = 100_000.0;
 
 /// The whole file.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -226,6 +230,19 @@ pub fn read_dataset(path: &Path) -> Result<Dataset, FormatError> {
     Ok(ds)
 }
 
+/// Parses and validates SeaDronesSee JSON held in memory, as [`read_dataset`] does a file;
+/// `path` only names it in errors.
+pub fn from_slice(bytes: &[u8], path: &Path) -> Result<Dataset, FormatError> {
+    let ds: Dataset = parse_json(bytes, path)?;
+    validate(&ds, path)?;
+    Ok(ds)
+}
+
+/// [`from_slice`] for text.
+pub fn from_str(text: &str, path: &Path) -> Result<Dataset, FormatError> {
+    from_slice(text.as_bytes(), path)
+}
+
 fn validate(ds: &Dataset, path: &Path) -> Result<(), FormatError> {
     let mut ids = HashMap::with_capacity(ds.images.len());
     for (i, im) in ds.images.iter().enumerate() {
@@ -258,6 +275,25 @@ fn validate(ds: &Dataset, path: &Path) -> Result<(), FormatError> {
                     path,
                     format!("images[{i}].meta.latitude"),
                     format!("latitude {} outside [-90, 90]", m.latitude),
+                ));
+            }
+            // Metadata is interpolated between records: finite values of any size would
+            // overflow there (1e308 to -1e308 gives NaN), and are no drone's position anyway.
+            if !(-180.0..=180.0).contains(&m.longitude) {
+                return Err(FormatError::invalid(
+                    path,
+                    format!("images[{i}].meta.longitude"),
+                    format!("longitude {} outside [-180, 180]", m.longitude),
+                ));
+            }
+            if m.height_above_takeoff_m.abs() > MAX_HEIGHT_M {
+                return Err(FormatError::invalid(
+                    path,
+                    format!("images[{i}].meta.height_above_takeoff(meter)"),
+                    format!(
+                        "height {} m outside [-{MAX_HEIGHT_M}, {MAX_HEIGHT_M}]",
+                        m.height_above_takeoff_m
+                    ),
                 ));
             }
         }
@@ -510,12 +546,41 @@ mod tests {
                 "images[0].meta.latitude",
             ),
             (r#"{"images": 3}"#, "images"),
+            (
+                r#"{"images": [{"id": 1, "width": 1, "height": 1, "meta": {"latitude": 9.0, "longitude": 1e308, "height_above_takeoff(meter)": 1.0, "gimbal_heading(degrees)": 0.0, "gimbal_pitch(degrees)": 0.0}}]}"#,
+                "images[0].meta.longitude",
+            ),
+            (
+                r#"{"images": [{"id": 1, "width": 1, "height": 1, "meta": {"latitude": 9.0, "longitude": 0.0, "height_above_takeoff(meter)": -1e6, "gimbal_heading(degrees)": 0.0, "gimbal_pitch(degrees)": 0.0}}]}"#,
+                "images[0].meta.height_above_takeoff(meter)",
+            ),
         ];
         for (content, place) in cases {
             let f = write(content);
             let e = read_dataset(f.path()).unwrap_err().to_string();
             assert!(e.contains(place), "{e} should name {place}");
+            // Parsing from memory names the same place and the path it is given (serde_json's
+            // slice and reader parsers may count the error's column one apart).
+            let from_memory = from_str(content, f.path()).unwrap_err().to_string();
+            assert!(
+                from_memory.contains(place),
+                "{from_memory} should name {place}"
+            );
+            assert!(from_memory.starts_with(&f.path().display().to_string()));
         }
+    }
+
+    #[test]
+    fn from_slice_reads_what_read_dataset_reads() {
+        let text = format!(
+            r#"{{"images": [{{"id": 7, "width": 100, "height": 50, {META}}}],
+              "annotations": [{{"id": 1, "image_id": 7, "bbox": [1, 2, 3, 4], "category_id": 1}}]}}"#
+        );
+        let f = write(&text);
+        let from_file = read_dataset(f.path()).unwrap();
+        let from_memory = from_slice(text.as_bytes(), Path::new("x.json")).unwrap();
+        assert_eq!(from_memory.images, from_file.images);
+        assert_eq!(from_memory.annotations, from_file.annotations);
     }
 
     #[test]

@@ -1,0 +1,3 @@
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| mgmot_fuzz::targets::sim_framing::stream(data));
