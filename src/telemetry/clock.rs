@@ -11,7 +11,11 @@
 //!   over the last [`ARRIVAL_WINDOW`] messages approaches the offset from above by the smallest
 //!   delay seen.
 //!
-//! An autopilot reboot (its clock jumps back by more than [`REBOOT_JUMP_US`]) resets both.
+//! An autopilot reboot (its clock jumps back by more than [`REBOOT_JUMP_US`], and
+//! [`REBOOT_CONFIRM`] stamps in a row stay on the new timeline) resets both. A lone old stamp
+//! (a delayed or replayed packet) is ignored instead, and the reset is logged at most every
+//! [`LOG_EVERY_US`], so old stamps can neither wipe the mapping packet by packet nor flood
+//! the log.
 
 use super::{AutopilotTimeUs, CompanionTimeUs};
 use std::collections::VecDeque;
@@ -26,6 +30,12 @@ pub const ARRIVAL_WINDOW: usize = 1024;
 
 /// A jump back of the autopilot clock by more than this is a reboot, not reordering.
 pub const REBOOT_JUMP_US: u64 = 2_000_000;
+
+/// Stamps in a row behind the latest by more than [`REBOOT_JUMP_US`] that make a reboot.
+pub const REBOOT_CONFIRM: u32 = 3;
+
+/// The reboot warning is logged at most this often (companion µs); the others are counted.
+pub const LOG_EVERY_US: u64 = 10_000_000;
 
 /// Which estimate the mapping currently uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,6 +64,14 @@ pub struct ClockSync {
     arrivals: VecDeque<i64>,
     /// Latest autopilot stamp seen, to notice a reboot.
     latest_autopilot: Option<AutopilotTimeUs>,
+    /// Stamps in a row far behind `latest_autopilot` (the newest of them, how many).
+    behind: Option<(AutopilotTimeUs, u32)>,
+    /// Stamps ignored as far behind without making a reboot.
+    stale_stamps: u64,
+    /// Resets since start.
+    resets: u64,
+    /// When the reset warning was last logged (companion µs), and resets not logged since.
+    last_warning: Option<(u64, u64)>,
 }
 
 impl ClockSync {
@@ -72,7 +90,9 @@ impl ClockSync {
         received: CompanionTimeUs,
     ) -> Option<u64> {
         let round_trip_us = received.0.checked_sub(sent.0)?;
-        self.note_autopilot_time(autopilot);
+        if !self.note_autopilot_time(autopilot, received) {
+            return None;
+        }
         let midpoint = sent.0 as i128 + i128::from(round_trip_us / 2);
         let offset_us = i64::try_from(midpoint - autopilot.0 as i128).ok()?;
         if self.exchanges.len() == TIMESYNC_WINDOW {
@@ -87,7 +107,9 @@ impl ClockSync {
 
     /// Records a message stamped `stamp` by the autopilot that arrived at `arrival`.
     pub fn observe_arrival(&mut self, stamp: AutopilotTimeUs, arrival: CompanionTimeUs) {
-        self.note_autopilot_time(stamp);
+        if !self.note_autopilot_time(stamp, arrival) {
+            return;
+        }
         let Ok(delta) = i64::try_from(arrival.0 as i128 - stamp.0 as i128) else {
             return;
         };
@@ -97,21 +119,63 @@ impl ClockSync {
         self.arrivals.push_back(delta);
     }
 
-    fn note_autopilot_time(&mut self, t: AutopilotTimeUs) {
-        if let Some(latest) = self.latest_autopilot {
-            if latest.0 > t.0 + REBOOT_JUMP_US {
-                tracing::warn!(
-                    from_us = latest.0,
-                    to_us = t.0,
-                    "autopilot clock jumped back: reboot; clock mapping reset"
-                );
-                self.exchanges.clear();
-                self.arrivals.clear();
-                self.latest_autopilot = Some(t);
-                return;
-            }
+    /// Notes the autopilot stamp `t` seen at companion time `now`: whether to use it (false
+    /// for a stamp far behind the latest that does not, or not yet, make a reboot).
+    fn note_autopilot_time(&mut self, t: AutopilotTimeUs, now: CompanionTimeUs) -> bool {
+        let Some(latest) = self.latest_autopilot else {
+            self.latest_autopilot = Some(t);
+            return true;
+        };
+        if latest.0 <= t.0.saturating_add(REBOOT_JUMP_US) {
+            // On the current timeline (or reordered by less than the jump).
+            self.behind = None;
+            self.latest_autopilot = Some(latest.max(t));
+            return true;
         }
-        self.latest_autopilot = Some(self.latest_autopilot.map_or(t, |l| l.max(t)));
+        // Far behind: a reboot only if the stamps stay on one new timeline.
+        let count = match self.behind {
+            Some((prev, n)) if t.0 >= prev.0 && t.0 <= prev.0.saturating_add(REBOOT_JUMP_US) => {
+                n + 1
+            }
+            _ => 1,
+        };
+        if count < REBOOT_CONFIRM {
+            self.behind = Some((t, count));
+            self.stale_stamps += 1;
+            return false;
+        }
+        self.behind = None;
+        self.resets += 1;
+        self.exchanges.clear();
+        self.arrivals.clear();
+        self.latest_autopilot = Some(t);
+        let due = self
+            .last_warning
+            .is_none_or(|(at, _)| now.0.saturating_sub(at) >= LOG_EVERY_US);
+        if due {
+            let suppressed = self.last_warning.map_or(0, |(_, n)| n);
+            tracing::warn!(
+                from_us = latest.0,
+                to_us = t.0,
+                resets = self.resets,
+                suppressed,
+                "autopilot clock jumped back: reboot; clock mapping reset"
+            );
+            self.last_warning = Some((now.0, 0));
+        } else if let Some((_, n)) = self.last_warning.as_mut() {
+            *n += 1;
+        }
+        true
+    }
+
+    /// Stamps ignored as far behind the latest without making a reboot (delayed, replayed).
+    pub fn stale_stamps(&self) -> u64 {
+        self.stale_stamps
+    }
+
+    /// Times the mapping was reset for an autopilot reboot.
+    pub fn resets(&self) -> u64 {
+        self.resets
     }
 
     /// The estimate in use.
@@ -203,8 +267,32 @@ mod tests {
     fn reboot_resets() {
         let mut c = ClockSync::new();
         c.observe_arrival(AutopilotTimeUs(100_000_000), CompanionTimeUs(100_500_000));
-        c.observe_arrival(AutopilotTimeUs(1_000), CompanionTimeUs(200_001_000));
+        for k in 0..u64::from(REBOOT_CONFIRM) {
+            assert_eq!(c.offset_us(), Some(500_000), "reset after {k} stamps");
+            c.observe_arrival(
+                AutopilotTimeUs(1_000 + k * 20_000),
+                CompanionTimeUs(200_001_000 + k * 20_000),
+            );
+        }
         assert_eq!(c.offset_us(), Some(200_000_000));
+        assert_eq!(c.resets(), 1);
+    }
+
+    /// Old stamps between current ones (a delayed or replayed packet, a spoofer) neither
+    /// reset the mapping nor are used.
+    #[test]
+    fn lone_old_stamps_are_ignored() {
+        let mut c = ClockSync::new();
+        for k in 0..1000u64 {
+            let now = 100_000_000 + k * 10_000;
+            c.observe_arrival(AutopilotTimeUs(now - 500_000), CompanionTimeUs(now));
+            if k % 2 == 0 {
+                c.observe_arrival(AutopilotTimeUs(1_000 + k), CompanionTimeUs(now));
+            }
+        }
+        assert_eq!(c.offset_us(), Some(500_000));
+        assert_eq!(c.resets(), 0);
+        assert_eq!(c.stale_stamps(), 500);
     }
 
     proptest! {
