@@ -106,7 +106,8 @@ impl Relay {
         // and one thread polling both sockets in turn fell behind on a loaded machine.
         let up = UdpSocket::bind("127.0.0.1:0").unwrap();
         let down = UdpSocket::bind("127.0.0.1:0").unwrap();
-        up.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+        up.set_read_timeout(Some(Duration::from_millis(50)))
+            .unwrap();
         down.set_read_timeout(Some(Duration::from_millis(50)))
             .unwrap();
         let listen_port = up.local_addr().unwrap().port();
