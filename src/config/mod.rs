@@ -237,6 +237,12 @@ pub enum FramesConfig {
         /// Cap of the reconnect delay (ms).
         #[serde(default = "default_reconnect_max_ms")]
         reconnect_max_ms: u64,
+        /// Bench runs only: hold each frame until the detector took the previous one (at most
+        /// 1 s), instead of replacing it, so that with `mgmot-sim run --lockstep` every frame
+        /// is processed whatever the machine's speed. Never in the air, where a stale frame
+        /// is worth nothing.
+        #[serde(default)]
+        wait_for_detector: bool,
     },
     /// Image files (`.jpg`, `.jpeg`, `.png`) of a directory, in name order.
     Images {

@@ -29,6 +29,10 @@ pub(super) struct Delivered {
     pub at: CompanionTimeUs,
 }
 
+/// With `frames.wait_for_detector`, the longest a frame waits for the detector to take the
+/// previous one (then it replaces it, counted as dropped): shutdown never waits longer.
+const WAIT_FOR_DETECTOR: Duration = Duration::from_secs(1);
+
 /// Why a capture loop returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum CaptureEnd {
@@ -59,11 +63,23 @@ pub(super) fn start(
     };
     let stop = shutdown.clone();
     let mut wait = move |d: Duration| wait_unless(&stop, d);
+    let wait_for_detector = matches!(
+        frames,
+        FramesConfig::Sim {
+            wait_for_detector: true,
+            ..
+        }
+    );
     let deliver = move |frame: Frame| {
-        writer.put(Delivered {
+        let delivered = Delivered {
             frame,
             at: CompanionTimeUs::now(),
-        })
+        };
+        if wait_for_detector {
+            writer.put_waiting(delivered, WAIT_FOR_DETECTOR)
+        } else {
+            writer.put(delivered)
+        }
     };
     let stop = move || shutdown.is_shutdown();
     let (open, reconnect): (Opener, Reconnect) = match frames.clone() {
@@ -72,6 +88,7 @@ pub(super) fn start(
             frame_timeout_ms,
             reconnect_initial_ms,
             reconnect_max_ms,
+            wait_for_detector: _,
         } => (
             Box::new(move |_| {
                 SimSocketSource::connect(&socket, Duration::from_millis(frame_timeout_ms))
