@@ -11,7 +11,12 @@ use std::time::{Duration, Instant};
 #[test]
 fn telemetry_over_a_pseudo_terminal() {
     let pty = nix::pty::openpty(None, None).expect("openpty");
-    let slave_path = nix::unistd::ttyname(&pty.slave).expect("ttyname");
+    // The slave's path, as ttyname(3) finds it: the link /proc keeps for the descriptor.
+    let slave_path = std::fs::read_link(format!(
+        "/proc/self/fd/{}",
+        std::os::fd::AsRawFd::as_raw_fd(&pty.slave)
+    ))
+    .expect("the pty slave's path");
     // Raw mode on the slave so the line discipline does not rewrite bytes before the
     // simulator configures the port.
     let mut tio = nix::sys::termios::tcgetattr(&pty.slave).unwrap();

@@ -18,20 +18,27 @@ use std::time::Duration;
 /// Autopilot clock at sim time 0 (the scenarios' default `telemetry.boot_time_s`).
 pub const BOOT_TIME_S: f64 = 120.0;
 
-/// The simulator binary: `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
-/// `cargo build -p mgmot-sim` (a workspace member).
+/// The simulator binary: `$MGMOT_SIM_BIN`, or the one `cargo build -p mgmot-sim` builds here
+/// in this test build's profile (a workspace member): `target/debug/mgmot-sim`, or
+/// `target/release/mgmot-sim` under `cargo test --release`.
 pub fn sim_bin() -> PathBuf {
     if let Some(p) = std::env::var_os("MGMOT_SIM_BIN") {
         return PathBuf::from(p);
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let status = Command::new(env!("CARGO"))
-        .args(["build", "-p", "mgmot-sim"])
-        .current_dir(root)
-        .status()
-        .expect("running cargo build -p mgmot-sim");
+    let release = !cfg!(debug_assertions);
+    let mut build = Command::new(env!("CARGO"));
+    build.args(["build", "-p", "mgmot-sim"]).current_dir(root);
+    if release {
+        build.arg("--release");
+    }
+    let status = build.status().expect("running cargo build -p mgmot-sim");
     assert!(status.success(), "cargo build -p mgmot-sim failed");
-    root.join("target/debug/mgmot-sim")
+    root.join(if release {
+        "target/release/mgmot-sim"
+    } else {
+        "target/debug/mgmot-sim"
+    })
 }
 
 /// Runs `sim ARGS -o OUT` (a batch mode: `render`, `detections`) to the end; a failure fails
