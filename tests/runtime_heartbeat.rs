@@ -7,7 +7,7 @@ mod common;
 
 use common::Proc;
 use mavlink_core::{MavlinkReader, MavlinkVersion};
-use mgmot::mavlink::dialect::MavMessage;
+use mgmot::mavlink::dialect::{MavMessage, MavType};
 use std::net::UdpSocket;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -58,7 +58,9 @@ fn heartbeats(socket: &UdpSocket, config: &Path, listen: Duration) -> Vec<Instan
         let now = Instant::now();
         let mut reader = MavlinkReader::new(&buf[..n]);
         while let Ok((h, m)) = reader.read_message::<MavMessage>(MavlinkVersion::V2) {
-            if h.component_id == 191 && matches!(m, MavMessage::HEARTBEAT(_)) {
+            if h.component_id == 191
+                && matches!(m, MavMessage::HEARTBEAT(hb) if hb.mavtype == MavType::MAV_TYPE_ONBOARD_CONTROLLER)
+            {
                 at.push(now);
             }
         }
