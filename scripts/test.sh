@@ -60,5 +60,5 @@ if ! MGMOT_FUZZ_CASES=1000000 MGMOT_FUZZ_SEED="$seed" \
   echo "test: a fuzz target failed (inputs saved under target/tmp/fuzz-findings/)" >&2
   exit 1
 fi
-grep -E '^fuzz ' "$fuzz_log"
+grep -oE 'fuzz [a-z_]+: .*' "$fuzz_log"
 rm -f "$fuzz_log"
