@@ -7,7 +7,7 @@
 //! A failing input is written to `<target tmp>/fuzz-findings/<target>/` and printed in hex.
 //!
 //! A long run: `MGMOT_FUZZ_CASES=1000000 cargo test --release --test fuzz_decoders --
-//! --nocapture`.
+//! --nocapture`. `MGMOT_FUZZ_SUMMARY=FILE` appends each target's summary line to FILE.
 
 #[path = "../fuzz/targets/mod.rs"]
 mod targets;
@@ -365,7 +365,7 @@ fn fuzz(name: &str) {
         }
     }
     let elapsed = start.elapsed();
-    println!(
+    let summary = format!(
         "fuzz {name}: {} corpus inputs + {cases} generated (seed {seed:#x}) in {:.1} s, \
          slowest input {:.1} ms ({} bytes), {} finding(s)",
         corpus.len(),
@@ -374,6 +374,18 @@ fn fuzz(name: &str) {
         slowest.1.len(),
         findings.len()
     );
+    println!("{summary}");
+    // `MGMOT_FUZZ_SUMMARY=FILE`: the line is also appended there, for a caller (scripts/
+    // test.sh) that runs the fuzz targets inside the whole suite, where output is captured.
+    if let Some(path) = std::env::var_os("MGMOT_FUZZ_SUMMARY") {
+        use std::io::Write;
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .unwrap_or_else(|e| panic!("MGMOT_FUZZ_SUMMARY {}: {e}", Path::new(&path).display()));
+        writeln!(f, "{summary}").unwrap();
+    }
     if findings.is_empty() {
         return;
     }
