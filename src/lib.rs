@@ -1,26 +1,27 @@
 //! mgmot: metadata-guided multi-object tracking for maritime search and rescue drones.
 //!
-//! The crate is split into a pure core and IO edges (see `ARCHITECTURE.md`):
+//! The pure core lives in its own crate, `mgmot-core` (no IO dependencies, so the compiler
+//! keeps it pure); its modules are re-exported here under their usual names: [`geo`],
+//! [`track`], [`eval`], [`telemetry`], [`frame`], [`report`], [`operator`], [`health`]. This crate holds
+//! the edges and the wiring (see `ARCHITECTURE.md`):
 //!
-//! - [`geo`]: camera model, WGS84 <-> local NED, ray / sea-plane intersection and
-//!   geolocation uncertainty (paper Sec. 3.1, Eq. 1-4).
-//! - [`track`]: the BoT-SORT-style tracker and the MG-MOT metadata-guided ReID
-//!   (paper Sec. 3.2), online and offline.
-//! - [`eval`]: HOTA, CLEAR and Identity metrics computed as TrackEval does.
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
-//! - [`detect`]: ONNX detector through `ort` (tract or ONNX Runtime), letterbox, NMS.
-//! - [`telemetry`]: autopilot clock mapping and pose interpolation at frame time (pure).
-//! - [`mavlink`], [`camera`], [`config`], [`pipeline`]: the onboard runtime's edges and wiring.
+//! - [`detect`]: ONNX detector through `ort` (tract or ONNX Runtime), letterbox.
+//! - [`mavlink`]: the MAVLink link (connection, signing, streams, TIMESYNC) and the
+//!   translation between MAVLink messages and domain events and outputs.
+//! - [`camera`]: frame sources (V4L2, image directories, the simulator's socket).
+//! - [`clock`]: the companion's monotonic clock, read at the edges only.
+//! - [`config`]: the runtime's TOML configuration, validated into typed settings.
+//! - [`pipeline`]: the onboard runtime's wiring: capture, one frame's step, outputs.
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod clock;
 pub mod config;
 pub mod detect;
-pub mod eval;
 pub mod formats;
-pub mod geo;
 pub mod logging;
 pub mod mavlink;
 pub mod pipeline;
-pub mod telemetry;
-pub mod track;
+
+pub use mgmot_core::{eval, frame, geo, health, operator, report, telemetry, track};

@@ -3,8 +3,10 @@
 //! it is not there.
 
 use mavlink_core::{MavHeader, MavlinkVersion};
+use mgmot::frame::GeoFix;
 use mgmot::geo::Geodetic;
-use mgmot::mavlink::{heartbeat, mgmot_track, statustext, Severity, TrackGeo, TrackReport};
+use mgmot::mavlink::{heartbeat, mgmot_track, statustext, Severity};
+use mgmot::report::TrackReport;
 use mgmot::telemetry::AutopilotTimeUs;
 use std::path::Path;
 use std::process::Command;
@@ -19,7 +21,7 @@ fn pymavlink_decodes_mgmot_messages() {
         confidence: 0.75,
         bbox_norm: [0.25, 0.5, 0.125, 0.0625],
         tracked: true,
-        geo: Some(TrackGeo {
+        geo: Some(GeoFix {
             position: Geodetic {
                 lat_deg: 47.6721234,
                 lon_deg: 9.2679876,

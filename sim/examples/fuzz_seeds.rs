@@ -21,11 +21,13 @@
 //! Every file stays under 4 KB. Files of other names (regression inputs) are left alone;
 //! `seed-*` files are rewritten.
 
+use mgmot::frame::GeoFix;
 use mgmot::mavlink::dialect::{
     MavCmd, MavMessage, COMMAND_INT_DATA, COMMAND_LONG_DATA, MOUNT_STATUS_DATA, TIMESYNC_DATA,
 };
-use mgmot::mavlink::{self as link, AckResult, Severity, TrackGeo, TrackReport};
-use mgmot::telemetry::AutopilotTimeUs;
+use mgmot::mavlink::{self as link, AckResult, Severity};
+use mgmot::report::TrackReport;
+use mgmot_core::telemetry::AutopilotTimeUs;
 use mgmot_sim::detections::{detect, mot_det_lines};
 use mgmot_sim::framing::FrameHeader;
 use mgmot_sim::output::{mot_gt_lines, SeaDronesSee};
@@ -277,8 +279,8 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
         confidence: 0.8,
         bbox_norm: [0.4, 0.5, 0.05, 0.08],
         tracked: true,
-        geo: Some(TrackGeo {
-            position: mgmot::geo::Geodetic::new(47.67, 9.26, 395.0)?,
+        geo: Some(GeoFix {
+            position: mgmot_core::geo::Geodetic::new(47.67, 9.26, 395.0)?,
             vel_n_mps: 0.3,
             vel_e_mps: 0.1,
             h_std_m: 2.5,

@@ -6,7 +6,7 @@
 use crate::scenario::{Detector, ObjectClass};
 use crate::truth::{FrameTruth, Optics};
 use crate::world::World;
-use mgmot::geo::Pixel;
+use mgmot_core::geo::Pixel;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -1,7 +1,7 @@
 //! `mgmot_sim`: the simulated world behind `mgmot-sim` (scenarios, motion, metadata faults,
 //! rendering, ground truth, detection simulation, MAVLink telemetry and frame framing).
 //!
-//! All projection goes through [`mgmot::geo`]: the simulator has no camera model of its own.
+//! All projection goes through [`mgmot_core::geo`]: the simulator has no camera model of its own.
 #![warn(missing_docs)]
 
 pub mod detections;

@@ -10,10 +10,10 @@
 //! the swimmer nearest to it.
 
 use crate::world::World;
-use mgmot::geo::{GeoError, Geodetic, LocalTangentFrame};
 use mgmot::mavlink::dialect::{
     MgmotObjectClass, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
 };
+use mgmot_core::geo::{GeoError, Geodetic, LocalTangentFrame};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};

@@ -4,7 +4,7 @@
 
 use crate::truth::{FrameTruth, Optics};
 use crate::world::{Reported, World};
-use mgmot::geo::attitude::camera_from_heading_pitch_deg;
+use mgmot_core::geo::attitude::camera_from_heading_pitch_deg;
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::fmt::Write as _;

@@ -2,17 +2,17 @@
 //! projected 3D silhouettes at the right pixel size for their distance and the FOV.
 //!
 //! Sea: each pixel's sea-plane coordinates come from the image->sea homography, fitted once
-//! per frame to four pixels that [`mgmot::geo::CameraModel::project_to_sea`] maps to the water
+//! per frame to four pixels that [`mgmot_core::geo::CameraModel::project_to_sea`] maps to the water
 //! (so the one camera model of the library decides where everything is), and evaluated
 //! incrementally along each row. Two precomputed tiling textures (swell and chop), shifted
 //! over time, give moving waves. Objects: their 3D parts are projected with
-//! [`mgmot::geo::CameraModel::project_to_image`] and filled as convex silhouettes, far to near.
+//! [`mgmot_core::geo::CameraModel::project_to_image`] and filled as convex silhouettes, far to near.
 
 use crate::objects::ObjectState;
 use crate::scenario::{ObjectClass, Scenario};
 use crate::truth::Optics;
 use crate::world::World;
-use mgmot::geo::{CameraPose, Pixel};
+use mgmot_core::geo::{CameraPose, Pixel};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

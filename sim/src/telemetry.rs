@@ -171,17 +171,17 @@ impl Scheduler {
 #[derive(Debug, Clone)]
 pub struct Autopilot<'w> {
     world: &'w World,
-    frame: mgmot::geo::LocalTangentFrame,
+    frame: mgmot_core::geo::LocalTangentFrame,
 }
 
 impl<'w> Autopilot<'w> {
     /// For `world`; errors when the origin is not a valid geodetic position.
-    pub fn new(world: &'w World) -> Result<Autopilot<'w>, mgmot::geo::GeoError> {
+    pub fn new(world: &'w World) -> Result<Autopilot<'w>, mgmot_core::geo::GeoError> {
         let o = &world.scenario.origin;
-        let origin = mgmot::geo::Geodetic::new(o.lat_deg, o.lon_deg, o.alt_amsl_m)?;
+        let origin = mgmot_core::geo::Geodetic::new(o.lat_deg, o.lon_deg, o.alt_amsl_m)?;
         Ok(Autopilot {
             world,
-            frame: mgmot::geo::LocalTangentFrame::new(origin),
+            frame: mgmot_core::geo::LocalTangentFrame::new(origin),
         })
     }
 
@@ -373,7 +373,7 @@ pub fn message_name(msg: &MavMessage) -> &'static str {
 mod tests {
     use super::*;
     use crate::scenario::Scenario;
-    use mgmot::geo::attitude::{
+    use mgmot_core::geo::attitude::{
         camera_from_gimbal_quaternion, camera_from_heading_pitch_deg, GimbalYawFrame,
     };
 

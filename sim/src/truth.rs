@@ -1,12 +1,12 @@
 //! Ground truth of one frame: the true camera pose and every visible object's box, class,
-//! id and world position. All projection goes through [`mgmot::geo`].
+//! id and world position. All projection goes through [`mgmot_core::geo`].
 
 use crate::motion::DroneState;
 use crate::objects::ObjectState;
 use crate::scenario::Scenario;
 use crate::world::World;
-use mgmot::geo::attitude::camera_from_heading_pitch_deg;
-use mgmot::geo::{CameraModel, CameraPose, GeoError, Geodetic, LocalTangentFrame, SeaPlane};
+use mgmot_core::geo::attitude::camera_from_heading_pitch_deg;
+use mgmot_core::geo::{CameraModel, CameraPose, GeoError, Geodetic, LocalTangentFrame, SeaPlane};
 use nalgebra::Vector3;
 
 /// Boxes whose clipped size is below this (on their longer side) are not ground truth: an

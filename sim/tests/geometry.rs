@@ -1,8 +1,8 @@
 //! Geometry consistency between the ground truth, the shared camera model and the pixels:
-//! a true world position projects (through `mgmot::geo`) to the centre of its box within
+//! a true world position projects (through `mgmot_core::geo`) to the centre of its box within
 //! 0.5 px, and the object's rendered pixels are inside that box, around its centre.
 
-use mgmot::geo::Pixel;
+use mgmot_core::geo::Pixel;
 use mgmot_sim::render::Renderer;
 use mgmot_sim::scenario::Scenario;
 use mgmot_sim::truth::{frame_truth, Optics};

@@ -33,11 +33,11 @@ pub struct MonotonicClock;
 
 impl FrameClock for MonotonicClock {
     fn now(&self) -> CompanionTimeUs {
-        CompanionTimeUs::now()
+        crate::clock::now()
     }
 
     fn sleep_until(&mut self, t: CompanionTimeUs) {
-        let now = CompanionTimeUs::now();
+        let now = crate::clock::now();
         if t > now {
             std::thread::sleep(std::time::Duration::from_micros(t.0 - now.0));
         }

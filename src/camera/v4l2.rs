@@ -265,7 +265,7 @@ impl FrameSource for V4l2Source {
                 );
                 self.dequeue_stamp_logged = true;
             }
-            CompanionTimeUs::now()
+            crate::clock::now()
         };
         if flags & BUF_FLAG_ERROR != 0 {
             return Err(CameraError::Buffer {

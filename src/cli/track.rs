@@ -11,12 +11,11 @@ use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
 use mgmot::formats::input::{self, InputKind};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
+use mgmot::frame::{geo_fix, tracker_input};
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, PoseNoise};
 use mgmot::track::{
-    track_sequence, BBox, Detection, FrameInput, MergeEvent, SequenceTrack, Tracker, TrackerParams,
-    WorldObservation,
+    track_sequence, BBox, Detection, MergeEvent, SequenceTrack, Tracker, TrackerParams,
 };
-use nalgebra::Vector3;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Write;
@@ -390,37 +389,32 @@ fn track_video(
             (Some(g), Some(m)) => g.frame(m).ok(),
             _ => None,
         };
-        let detections: Vec<Detection> = dets_by_image
-            .get(&f.image_id)
-            .map(|dets| {
-                dets.iter()
-                    .map(|(class_id, b, score)| {
-                        let bbox = BBox::new(b[0], b[1], b[2], b[3]);
-                        Detection {
-                            bbox,
-                            score: *score as f32,
-                            class_id: *class_id,
-                            world: geometry
-                                .as_ref()
-                                .and_then(|g| WorldObservation::of_box(g, &bbox)),
-                        }
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        n_dets += detections.len();
-        geolocated += detections.iter().filter(|d| d.world.is_some()).count();
-        let image_motion = match (&previous, &geometry) {
-            (Some(p), Some(c)) => p.image_motion_to(c).ok(),
-            _ => None,
-        };
-        inputs.push(FrameInput {
-            frame_index: f.video_frame,
-            time_s: f.time_s,
-            image_size_px: (image.width, image.height),
+        let detections =
+            dets_by_image
+                .get(&f.image_id)
+                .into_iter()
+                .flatten()
+                .map(|(class_id, b, score)| Detection {
+                    bbox: BBox::new(b[0], b[1], b[2], b[3]),
+                    score: *score as f32,
+                    class_id: *class_id,
+                    world: None,
+                });
+        let input = tracker_input(
+            f.video_frame,
+            f.time_s,
+            (image.width, image.height),
             detections,
-            image_motion,
-        });
+            geometry.as_ref(),
+            previous.as_ref(),
+        );
+        n_dets += input.detections.len();
+        geolocated += input
+            .detections
+            .iter()
+            .filter(|d| d.world.is_some())
+            .count();
+        inputs.push(input);
         previous = geometry;
     }
 
@@ -470,21 +464,20 @@ fn track_video(
             args.class_column.then_some(t.class_id),
         ));
         if let (Some(world), Some(reference)) = (&t.world, reference) {
-            let geodetic =
-                reference.to_geodetic(&Vector3::new(world.pos_ne_m.x, world.pos_ne_m.y, 0.0));
+            let fix = geo_fix(reference, world, None);
             geo_rows.push(TrackRow {
                 frame: f.frame_number,
                 time_s: f.time_s,
                 track_id: t.id,
                 class_id: t.class_id,
                 score: t.score,
-                lat_deg: geodetic.lat_deg,
-                lon_deg: geodetic.lon_deg,
+                lat_deg: fix.position.lat_deg,
+                lon_deg: fix.position.lon_deg,
                 north_m: world.pos_ne_m.x,
                 east_m: world.pos_ne_m.y,
-                vel_north_mps: world.vel_ne_m_s.x,
-                vel_east_mps: world.vel_ne_m_s.y,
-                h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
+                vel_north_mps: fix.vel_n_mps,
+                vel_east_mps: fix.vel_e_mps,
+                h_std_m: fix.h_std_m,
                 interpolated: t.interpolated,
             });
         }

@@ -428,7 +428,7 @@ impl Default for OutputsConfig {
             target_absolute: true,
             heartbeat_hz: 1.0,
             camera_tracking_hz: 5.0,
-            track_point_radius: crate::pipeline::operator::DEFAULT_POINT_RADIUS,
+            track_point_radius: crate::operator::DEFAULT_POINT_RADIUS,
         }
     }
 }

@@ -60,6 +60,16 @@ impl PixelBox {
         }
     }
 
+    /// The same box as the tracker's [`crate::track::BBox`] (f64).
+    pub fn to_bbox(&self) -> crate::track::BBox {
+        crate::track::BBox::new(
+            f64::from(self.x_px),
+            f64::from(self.y_px),
+            f64::from(self.w_px),
+            f64::from(self.h_px),
+        )
+    }
+
     /// Area in square pixels.
     pub fn area(&self) -> f32 {
         self.w_px * self.h_px

@@ -4,6 +4,7 @@
 use super::model::OutputLayout;
 use super::preprocess::Letterbox;
 use super::{Detection, PixelBox};
+use crate::track::{nms_prefer_larger, BBox};
 
 /// Decodes one output tensor (`data` in row-major order of the layout's shape)
 /// into frame-pixel detections scoring at least `score_threshold`.
@@ -84,32 +85,28 @@ pub fn class_aware_nms(
     kept
 }
 
-/// The MG-MOT paper's suppression (Sec. "Post-Processing"): among overlapping
-/// detections the one with the **larger box area** wins and the smaller ones
-/// are filtered out, because at low altitude the smaller of two overlapping
-/// boxes is most often a false positive (a part of a swimmer or boat).
+/// The MG-MOT paper's suppression (Sec. "Post-Processing") on the detector's output: among
+/// overlapping detections the one with the **larger box area** wins, because at low altitude
+/// the smaller of two overlapping boxes is most often a false positive (a part of a swimmer or
+/// boat). The one implementation is the core's [`nms_prefer_larger`] (which the tracker's
+/// baseline also applies, with its own threshold); this only orders the detections by score
+/// first, so that ties in area go to the higher score, and returns them sorted by score.
 ///
-/// Class-agnostic; a box is dropped when its IoU with a larger kept box
-/// exceeds `iou_threshold`. Ties in area go to the higher score. The result
-/// is sorted by score.
+/// Class-agnostic; a box is dropped when its IoU with a larger kept box exceeds
+/// `iou_threshold`.
 pub fn larger_box_priority_suppression(
     mut dets: Vec<Detection>,
     iou_threshold: f32,
 ) -> Vec<Detection> {
-    dets.sort_by(|a, b| {
-        b.bbox
-            .area()
-            .total_cmp(&a.bbox.area())
-            .then(b.score.total_cmp(&a.score))
-    });
-    let mut kept: Vec<Detection> = Vec::with_capacity(dets.len());
-    for d in dets {
-        if !kept.iter().any(|k| k.bbox.iou(&d.bbox) > iou_threshold) {
-            kept.push(d);
-        }
-    }
-    kept.sort_by(|a, b| b.score.total_cmp(&a.score));
-    kept
+    dets.sort_by(|a, b| b.score.total_cmp(&a.score));
+    let boxes: Vec<BBox> = dets.iter().map(|d| d.bbox.to_bbox()).collect();
+    // Ascending indices: still sorted by score.
+    let kept = nms_prefer_larger(&boxes, f64::from(iou_threshold));
+    let mut keep = kept.into_iter().peekable();
+    dets.into_iter()
+        .enumerate()
+        .filter_map(|(i, d)| keep.next_if_eq(&i).map(|_| d))
+        .collect()
 }
 
 #[cfg(test)]
@@ -252,7 +249,7 @@ mod tests {
             let kept = larger_box_priority_suppression(dets.clone(), thr);
             for (i, a) in kept.iter().enumerate() {
                 for b in &kept[i + 1..] {
-                    prop_assert!(a.bbox.iou(&b.bbox) <= thr);
+                    prop_assert!(a.bbox.to_bbox().iou(&b.bbox.to_bbox()) <= f64::from(thr));
                 }
             }
             let max_area = dets.iter().map(|d| d.bbox.area()).fold(0.0f32, f32::max);

@@ -1,8 +1,8 @@
 //! The messages mgmot sends, built from domain values.
 
 use super::dialect::*;
-use crate::geo::Geodetic;
-use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
+use crate::report::{TrackReport, TrackingMode, TrackingStatus};
+use crate::telemetry::CompanionTimeUs;
 use mavlink_core::MessageData;
 
 // MOUNT_ORIENTATION is deprecated in common.xml but still what ArduPilot sends for legacy
@@ -124,40 +124,6 @@ pub fn command_ack(
     })
 }
 
-/// The geographic part of a track report.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackGeo {
-    /// Position on the sea surface; `alt_m` AMSL.
-    pub position: Geodetic,
-    /// Velocity north (m/s).
-    pub vel_n_mps: f64,
-    /// Velocity east (m/s).
-    pub vel_e_mps: f64,
-    /// Horizontal position standard deviation (m).
-    pub h_std_m: f64,
-}
-
-/// One confirmed track as reported over MAVLink.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackReport {
-    /// Capture time of the frame the state belongs to.
-    pub time: AutopilotTimeUs,
-    /// Track id.
-    pub track_id: u64,
-    /// The id a re-identified track had before it was merged into this one, in this frame.
-    pub merged_from_id: Option<u64>,
-    /// Class id (SeaDronesSee numbering).
-    pub class_id: u32,
-    /// Detector confidence (0..1).
-    pub confidence: f32,
-    /// Box (x, y, w, h) as fractions of the image size.
-    pub bbox_norm: [f32; 4],
-    /// Matched in this frame (`false`: predicted, the track is lost for now).
-    pub tracked: bool,
-    /// Geolocation, when the frame had a usable pose.
-    pub geo: Option<TrackGeo>,
-}
-
 fn deg_e7(deg: f64) -> i32 {
     (deg * 1e7).round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
 }
@@ -243,36 +209,6 @@ pub fn target_absolute(r: &TrackReport) -> Option<MavMessage> {
         vel_std: nan3,
         acc_std: nan3,
     }))
-}
-
-/// How the operator selected the tracked target; the image status reports it the same way.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TrackingMode {
-    /// By a point: reported as the box centre and a radius.
-    Point,
-    /// By a rectangle: reported as the box.
-    Rectangle,
-}
-
-/// The operator-selected track, for CAMERA_TRACKING_IMAGE_STATUS and
-/// CAMERA_TRACKING_GEO_STATUS.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackingStatus {
-    /// How it was selected.
-    pub mode: TrackingMode,
-    /// Box (x, y, w, h) as fractions of the image size.
-    pub bbox_norm: [f32; 4],
-    /// Image width / height, to express the point radius as a fraction of the width.
-    pub aspect: f32,
-    /// Not detected in the latest frame: box and position are the filters' predictions.
-    pub coasting: bool,
-    /// Geolocation, when the frame had a usable pose.
-    pub geo: Option<TrackGeo>,
-    /// Standard deviation of the velocity (m/s), per axis (the root mean of the north and
-    /// east variances); `None` when unknown.
-    pub vel_std_mps: Option<f64>,
-    /// Distance from the camera to the object (m); `None` when unknown.
-    pub range_m: Option<f64>,
 }
 
 fn nan_or(v: Option<f64>) -> f32 {
@@ -417,6 +353,9 @@ pub fn camera_information(time_boot_ms: u32, image_size_px: Option<(u32, u32)>) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::GeoFix;
+    use crate::geo::Geodetic;
+    use crate::telemetry::AutopilotTimeUs;
     use mavlink_core::{MavHeader, MavlinkVersion, Message as _};
 
     fn report(geo: bool) -> TrackReport {
@@ -428,7 +367,7 @@ mod tests {
             confidence: 0.8,
             bbox_norm: [0.1, 0.2, 0.05, 0.04],
             tracked: true,
-            geo: geo.then_some(TrackGeo {
+            geo: geo.then_some(GeoFix {
                 position: Geodetic {
                     lat_deg: 47.6721234,
                     lon_deg: 9.2679876,

@@ -73,7 +73,7 @@ pub(super) fn start(
     let deliver = move |frame: Frame| {
         let delivered = Delivered {
             frame,
-            at: CompanionTimeUs::now(),
+            at: crate::clock::now(),
         };
         if wait_for_detector {
             writer.put_waiting(delivered, WAIT_FOR_DETECTOR)

@@ -3,15 +3,19 @@
 //!
 //! Frame sources: V4L2, an image directory or the simulator's socket ([`crate::camera`]);
 //! detector: the ONNX model or the replay of the simulator's detections (bench); per-stage
-//! latency histograms in the logs ([`latency`]); operator-selected tracking ([`operator`]).
+//! latency histograms in the logs ([`latency`]); operator-selected tracking (`operator_link`, on
+//! the core's `operator`).
 
 mod capture;
 mod detector;
+mod frame_step;
+mod health;
 pub mod latency;
-pub mod operator;
+mod operator_link;
 mod run;
 mod shutdown;
 mod slot;
+mod telemetry;
 
 pub use detector::{Detector, DetectorError, OnnxDetector, ReplayDetector};
 pub use run::{run, PipelineError, RunStats};

@@ -541,7 +541,7 @@ impl LinkTask {
             Ok(Ok(true)) => {
                 self.stats.messages_sent += 1;
                 if let Some(f) = on_sent {
-                    f(CompanionTimeUs::now());
+                    f(crate::clock::now());
                 }
                 true
             }
@@ -562,71 +562,23 @@ impl LinkTask {
         }
     }
 
-    /// Timers: peer expiry, stream requests, TIMESYNC, signing state. `false`: reconnect.
+    /// Timers: stream requests, TIMESYNC, signing state. `false`: reconnect.
     async fn periodic(&mut self, conn: &mut Connection) -> bool {
         let autopilot_here = self
             .autopilot_heard
             .is_some_and(|t| t.elapsed() < AUTOPILOT_SILENCE);
-        if autopilot_here && !self.settings.streams.is_empty() {
-            if let Some(req) = self.streams.poll(self.since_start()) {
-                self.stats.stream_requests += 1;
-                tracing::debug!(
-                    message_id = req.message_id,
-                    rate_hz = req.rate_hz,
-                    "requesting stream"
-                );
-                let m = message_interval_request(
-                    self.settings.system_id,
-                    self.settings.autopilot_component_id,
-                    req.message_id,
-                    req.rate_hz,
-                );
-                if !self
-                    .send(
-                        conn,
-                        Outgoing {
-                            message: m,
-                            on_sent: None,
-                        },
-                    )
-                    .await
-                {
+        if autopilot_here {
+            for message in [self.stream_request_due(), self.timesync_due()]
+                .into_iter()
+                .flatten()
+            {
+                let out = Outgoing {
+                    message,
+                    on_sent: None,
+                };
+                if !self.send(conn, out).await {
                     return false;
                 }
-            }
-        }
-        let hz = self.settings.timesync_hz;
-        if autopilot_here
-            && hz > 0.0
-            && self
-                .last_timesync
-                .is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / hz)
-        {
-            self.last_timesync = Some(Instant::now());
-            let now = CompanionTimeUs::now();
-            let ts1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
-            self.timesync.sent(ts1);
-            let m = match super::timesync_request(now) {
-                MavMessage::TIMESYNC(mut t) => {
-                    // Addressed to the autopilot: a ground station that also answers
-                    // broadcast requests is not asked.
-                    t.target_system = self.settings.system_id;
-                    t.target_component = self.settings.autopilot_component_id;
-                    MavMessage::TIMESYNC(t)
-                }
-                other => other,
-            };
-            if !self
-                .send(
-                    conn,
-                    Outgoing {
-                        message: m,
-                        on_sent: None,
-                    },
-                )
-                .await
-            {
-                return false;
             }
         }
         if self.last_persist.elapsed() >= Duration::from_secs(1) {
@@ -634,6 +586,52 @@ impl LinkTask {
             self.persist_signing();
         }
         true
+    }
+
+    /// The next SET_MESSAGE_INTERVAL request, when one is due.
+    fn stream_request_due(&mut self) -> Option<MavMessage> {
+        if self.settings.streams.is_empty() {
+            return None;
+        }
+        let req = self.streams.poll(self.since_start())?;
+        self.stats.stream_requests += 1;
+        tracing::debug!(
+            message_id = req.message_id,
+            rate_hz = req.rate_hz,
+            "requesting stream"
+        );
+        Some(message_interval_request(
+            self.settings.system_id,
+            self.settings.autopilot_component_id,
+            req.message_id,
+            req.rate_hz,
+        ))
+    }
+
+    /// The next TIMESYNC request, when one is due (recorded as outstanding).
+    fn timesync_due(&mut self) -> Option<MavMessage> {
+        let hz = self.settings.timesync_hz;
+        let due = hz > 0.0
+            && self
+                .last_timesync
+                .is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / hz);
+        if !due {
+            return None;
+        }
+        self.last_timesync = Some(Instant::now());
+        let now = crate::clock::now();
+        let ts1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
+        self.timesync.sent(ts1);
+        Some(match super::timesync_request(now) {
+            MavMessage::TIMESYNC(mut t) => {
+                // Addressed to the autopilot: a ground station that also answers broadcast
+                // requests is not asked.
+                t.target_system = self.settings.system_id;
+                t.target_component = self.settings.autopilot_component_id;
+                MavMessage::TIMESYNC(t)
+            }
+            other => other,
+        })
     }
 
     fn persist_signing(&mut self) {
@@ -653,7 +651,7 @@ impl LinkTask {
         from: Option<SocketAddr>,
         conn: &mut Connection,
     ) {
-        let at = CompanionTimeUs::now();
+        let at = crate::clock::now();
         // 1. The peer.
         if let (Some(from), Some(remote)) = (from, conn.fixed_remote()) {
             if from != remote {

@@ -1,7 +1,7 @@
 //! Telemetry, made usable for geolocation: the autopilot's clock mapped onto the companion's,
 //! and the camera pose interpolated at each frame's capture time.
 //!
-//! Pure and synchronous (no IO, no tokio): the MAVLink edge ([`crate::mavlink`]) turns messages
+//! Pure and synchronous (no IO, no tokio, no clock read): the MAVLink edge (`mgmot::mavlink`) turns messages
 //! into the samples defined here and the pipeline asks [`PoseBuffer::pose_at`] for a frame's
 //! pose. A pose that cannot be trusted (no samples, or the nearest one older than the
 //! configured limit) is a typed [`NoPose`], never a silently stale value.
@@ -15,26 +15,12 @@ pub use pose::{
 };
 
 /// A time on the companion computer's monotonic clock, microseconds. Frames are stamped on it
-/// (V4L2 buffer timestamps) and telemetry arrival is measured on it.
+/// (V4L2 buffer timestamps) and telemetry arrival is measured on it. The core never reads the
+/// clock: the `mgmot` crate's `clock::now` does, at the edges.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct CompanionTimeUs(pub u64);
 
 impl CompanionTimeUs {
-    /// Now on `CLOCK_MONOTONIC`, the clock V4L2 stamps its buffers with (the one clock read in
-    /// this otherwise pure module, so every companion time in the runtime is on it).
-    pub fn now() -> Self {
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC exists on every Linux,
-        // so the call cannot fail (it would leave `ts` at zero if it did).
-        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-        // time_t and c_long are 32-bit on some targets.
-        #[allow(clippy::unnecessary_cast)]
-        Self::from_timespec(ts.tv_sec as i64, ts.tv_nsec as i64 / 1000)
-    }
-
     /// From a `(seconds, microseconds)` pair such as a V4L2 buffer's `timeval`; negative
     /// parts (never produced by a monotonic clock) clamp to zero.
     pub fn from_timespec(sec: i64, usec: i64) -> Self {

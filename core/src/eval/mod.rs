@@ -1,7 +1,7 @@
 //! Multi-object tracking metrics computed exactly as TrackEval computes them.
 //!
 //! This module is the pure core of `mgmot eval`: it takes annotations that are
-//! already in memory (see [`crate::formats::mot`] for the MOTChallenge text
+//! already in memory (see `mgmot::formats::mot` for the MOTChallenge text
 //! reader) and returns HOTA, CLEAR and Identity metrics. It does no IO.
 //!
 //! # What "exactly as TrackEval" means here

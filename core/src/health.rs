@@ -1,8 +1,7 @@
-//! STATUSTEXT when something changes: each watched condition is reported when it is first
-//! found broken and every time it changes after that, never on every frame.
-
-use super::dialect::MavMessage;
-use super::encode::{statustext, Severity};
+//! Health of the runtime's inputs, for the operator: each watched condition (telemetry,
+//! camera, detector) is announced when it is first found broken and every time it changes
+//! after that, never on every frame. Pure: the runtime observes, the MAVLink edge sends the
+//! [`Notice`] as STATUSTEXT and the log gets it too.
 
 /// Something whose loss and return mgmot announces to the operator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,7 +34,35 @@ impl Condition {
     }
 }
 
-/// Turns observations of one [`Condition`] into STATUSTEXT on changes only. The first
+/// How a [`Notice`] is to be shown (STATUSTEXT severity, log level).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    /// Something works (again).
+    Info,
+    /// Something is broken: the operator should know.
+    Warning,
+}
+
+/// A change worth telling the operator about.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Notice {
+    /// Info when a condition recovers, Warning when it breaks.
+    pub level: Level,
+    /// The text (the MAVLink edge keeps STATUSTEXT's first 50 bytes).
+    pub text: String,
+}
+
+impl Notice {
+    /// A notice with any text.
+    pub fn new(level: Level, text: impl Into<String>) -> Self {
+        Self {
+            level,
+            text: text.into(),
+        }
+    }
+}
+
+/// Turns observations of one [`Condition`] into [`Notice`]s on changes only. The first
 /// observation is news only when it is bad ("ok" at start-up is not worth a message).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ConditionReport {
@@ -59,23 +86,22 @@ impl ConditionReport {
         self.ok
     }
 
-    /// Records the current state; returns the STATUSTEXT to send when it is news. `detail`
-    /// (e.g. the detector's error) is appended to a "lost" text; STATUSTEXT keeps the first 50
-    /// bytes.
-    pub fn observe(&mut self, ok: bool, detail: Option<&str>) -> Option<MavMessage> {
+    /// Records the current state; returns the notice to send when it is news. `detail`
+    /// (e.g. the detector's error) is appended to a "lost" text.
+    pub fn observe(&mut self, ok: bool, detail: Option<&str>) -> Option<Notice> {
         let previous = self.ok.replace(ok);
         if previous == Some(ok) || (previous.is_none() && ok) {
             return None;
         }
         Some(if ok {
-            statustext(Severity::Info, self.condition.back_text())
+            Notice::new(Level::Info, self.condition.back_text())
         } else {
             match detail {
-                Some(d) => statustext(
-                    Severity::Warning,
-                    &format!("{}: {d}", self.condition.lost_text()),
+                Some(d) => Notice::new(
+                    Level::Warning,
+                    format!("{}: {d}", self.condition.lost_text()),
                 ),
-                None => statustext(Severity::Warning, self.condition.lost_text()),
+                None => Notice::new(Level::Warning, self.condition.lost_text()),
             }
         })
     }
@@ -85,12 +111,8 @@ impl ConditionReport {
 mod tests {
     use super::*;
 
-    fn text(m: Option<MavMessage>) -> Option<String> {
-        match m {
-            Some(MavMessage::STATUSTEXT(s)) => Some(s.text.to_str().unwrap().to_owned()),
-            Some(other) => panic!("{other:?}"),
-            None => None,
-        }
+    fn text(m: Option<Notice>) -> Option<String> {
+        m.map(|n| n.text)
     }
 
     #[test]
@@ -123,13 +145,5 @@ mod tests {
             text(r.observe(true, None)).as_deref(),
             Some("mgmot: telemetry ok")
         );
-    }
-
-    #[test]
-    fn long_details_are_cut_to_fit() {
-        let mut r = ConditionReport::new(Condition::Camera);
-        let t = text(r.observe(false, Some(&"x".repeat(200)))).unwrap();
-        assert_eq!(t.len(), 50);
-        assert!(t.starts_with("mgmot: camera lost: x"));
     }
 }

@@ -1,0 +1,451 @@
+//! One frame's journey, top to bottom: [`FrameStep::process`] takes a frame from the
+//! newest-frame slot, runs the detector, asks telemetry for the camera pose at exposure,
+//! geolocates the boxes and builds the tracker's input (`mgmot_core::frame`), steps the
+//! tracker, publishes the due track reports and the operator-selected track's status, and
+//! records each stage's latency.
+
+use super::capture::Delivered;
+use super::health::announce;
+use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
+use super::operator_link::OperatorLink;
+use super::telemetry::{FramePose, TelemetryState};
+use super::{Detector, RunStats, Shutdown, SlotReader, Taken};
+use crate::camera::Frame;
+use crate::config::Config;
+use crate::frame::{geo_fix, tracker_input, GeoFix};
+use crate::geo::{CameraModel, FrameMetadata, Geolocator, PoseNoise};
+use crate::health::{Condition, ConditionReport};
+use crate::mavlink::Outputs;
+use crate::report::TrackReport;
+use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
+use crate::track::{Detection, FrameInput, FrameOutput, TrackOutput, Tracker};
+use nalgebra::Vector3;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// How long the frame step waits for a frame before answering operator requests anyway.
+const TAKE_TIMEOUT: Duration = Duration::from_millis(100);
+
+/// The camera and geolocation settings the step needs from the configuration.
+#[derive(Debug, Clone, Copy)]
+struct GeoSettings {
+    hfov_deg: f64,
+    noise: PoseNoise,
+    max_range_m: f64,
+}
+
+/// Everything one frame's processing needs, and what it remembers from frame to frame.
+pub(super) struct FrameStep {
+    detector: Box<dyn Detector>,
+    detector_health: ConditionReport,
+    tracker: Tracker,
+    telemetry: Arc<Mutex<TelemetryState>>,
+    geo: GeoSettings,
+    /// Set up at the first frame with a pose: its nadir point is the local frame's origin.
+    geolocator: Option<Geolocator>,
+    /// The previous frame's index and metadata (for camera-motion compensation).
+    previous: Option<(u64, FrameMetadata)>,
+    /// The tracker's clock, forced monotonic.
+    last_time_s: Option<f64>,
+    /// "No pose" is logged once per spell.
+    no_pose_reported: bool,
+    publisher: TrackPublisher,
+    operator: OperatorLink,
+    outputs: Outputs,
+    latency: Arc<Mutex<Latency>>,
+    stats: RunStats,
+    first_taken: Option<Instant>,
+}
+
+/// The stage boundaries of one frame, for the latency histograms.
+struct Marks {
+    started: Instant,
+    taken_at: CompanionTimeUs,
+    delivered: CompanionTimeUs,
+    detected: Instant,
+    geolocated: Instant,
+    tracked: Instant,
+}
+
+impl FrameStep {
+    /// A step with its detector, tracker, the shared telemetry and the outputs.
+    pub fn new(
+        config: &Config,
+        detector: Box<dyn Detector>,
+        tracker: Tracker,
+        telemetry: Arc<Mutex<TelemetryState>>,
+        operator: OperatorLink,
+        outputs: Outputs,
+        latency: Arc<Mutex<Latency>>,
+    ) -> Self {
+        Self {
+            detector,
+            detector_health: ConditionReport::new(Condition::Detector),
+            tracker,
+            telemetry,
+            geo: GeoSettings {
+                hfov_deg: config.camera.hfov_deg,
+                noise: config.geolocation.noise,
+                max_range_m: config.geolocation.max_range_m,
+            },
+            geolocator: None,
+            previous: None,
+            last_time_s: None,
+            no_pose_reported: false,
+            publisher: TrackPublisher::new(config.outputs.track_rate_hz, outputs.clone()),
+            operator,
+            outputs,
+            latency,
+            stats: RunStats::default(),
+            first_taken: None,
+        }
+    }
+
+    /// Processes frames until `shutdown` fires or the source ends; returns the counters.
+    pub fn run(mut self, reader: &SlotReader<Delivered>, shutdown: &Shutdown) -> RunStats {
+        let mut window = Window::new();
+        while !shutdown.is_shutdown() {
+            window.log_if_due(&self.latency, &self.stats, reader.dropped());
+            match reader.take(TAKE_TIMEOUT) {
+                Taken::Value(d) => self.process(d),
+                // No frame: requests are still answered, against the last frame's tracks.
+                Taken::Timeout => self.operator.answer_requests(),
+                Taken::Closed => break,
+            }
+        }
+        self.stats.frames_dropped = reader.dropped();
+        self.stats
+    }
+
+    /// One frame, from the slot to the outputs.
+    fn process(&mut self, Delivered { frame, at }: Delivered) {
+        let started = Instant::now();
+        let taken_at = crate::clock::now();
+        self.first_taken.get_or_insert(started);
+        let (index, captured, size) = (
+            frame.index,
+            frame.captured,
+            (frame.width_px, frame.height_px),
+        );
+        let Some(detections) = self.detect(frame) else {
+            return;
+        };
+        let detected = Instant::now();
+        let Ok(pose) = self.telemetry.lock().map(|t| t.at_capture(captured)) else {
+            return;
+        };
+        self.report_missing_pose(index, &pose);
+        let (input, camera_ned) = self.tracker_input(index, size, detections, &pose);
+        let geolocated = Instant::now();
+        let output = match self.tracker.step(&input) {
+            Ok(o) => o,
+            Err(e) => {
+                self.stats.tracker_errors += 1;
+                tracing::warn!(error = %e, frame = index, "tracker rejected a frame");
+                return;
+            }
+        };
+        let tracked = Instant::now();
+        self.stats.frames_processed += 1;
+        self.publish(&output, size, &pose, at, camera_ned);
+        self.record_latency(
+            &pose,
+            Marks {
+                started,
+                taken_at,
+                delivered: at,
+                detected,
+                geolocated,
+                tracked,
+            },
+        );
+        tracing::debug!(
+            frame = index,
+            tracks = output.tracks.len(),
+            elapsed_us = started.elapsed().as_micros() as u64,
+            "frame processed"
+        );
+    }
+
+    /// The detector on one frame; its failures and recoveries are announced on change.
+    fn detect(&mut self, frame: Frame) -> Option<Vec<Detection>> {
+        match self.detector.detect(frame) {
+            Ok(d) => {
+                if let Some(n) = self.detector_health.observe(true, None) {
+                    tracing::info!(
+                        failed_frames = self.stats.detector_errors,
+                        "detector ok again"
+                    );
+                    self.outputs.notice(&n);
+                }
+                Some(d)
+            }
+            Err(e) => {
+                self.stats.detector_errors += 1;
+                match self.detector_health.observe(false, Some(&e.to_string())) {
+                    Some(n) => announce(&self.outputs, &n),
+                    None => tracing::debug!(error = %e, "detector"),
+                }
+                None
+            }
+        }
+    }
+
+    /// Counts frames without a pose and logs the first of each spell.
+    fn report_missing_pose(&mut self, index: u64, pose: &FramePose) {
+        match &pose.meta {
+            Ok(_) => self.no_pose_reported = false,
+            Err(why) => {
+                self.stats.frames_without_pose += 1;
+                if !self.no_pose_reported {
+                    tracing::warn!(frame = index, %why, "no pose: tracking in the image only");
+                    self.no_pose_reported = true;
+                }
+            }
+        }
+    }
+
+    /// Geolocates the detections (when the frame has a pose) and builds the tracker's input;
+    /// also returns the camera's position in the local frame (for the operator's range).
+    fn tracker_input(
+        &mut self,
+        index: u64,
+        size: (u32, u32),
+        detections: Vec<Detection>,
+        pose: &FramePose,
+    ) -> (FrameInput, Option<Vector3<f64>>) {
+        // The tracker's clock only goes forward: a source that restarted (its clock from 0
+        // again, a new session) continues just after the last frame's time.
+        let raw_time_s = pose
+            .frame_time
+            .map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6);
+        let time_s = match self.last_time_s {
+            Some(last) if raw_time_s < last => last + 1e-3,
+            _ => raw_time_s,
+        };
+        self.last_time_s = Some(time_s);
+        let meta = pose.meta.as_ref().ok();
+        if let (None, Some(m)) = (&self.geolocator, meta) {
+            match CameraModel::from_hfov(size.0, size.1, self.geo.hfov_deg) {
+                Ok(camera) => {
+                    self.geolocator = Some(
+                        Geolocator::new(m.nadir_on_water(), camera, self.geo.noise)
+                            .with_max_range_m(self.geo.max_range_m),
+                    )
+                }
+                Err(e) => tracing::warn!(error = %e, "camera model"),
+            }
+        }
+        let previous = self.previous.take();
+        self.previous = meta.map(|m| (index, *m));
+        let Some(g) = &self.geolocator else {
+            return (
+                tracker_input(index, time_s, size, detections, None, None),
+                None,
+            );
+        };
+        let geometry = meta.and_then(|m| g.frame(m).ok());
+        let previous_geometry = match previous {
+            Some((prev, m)) if prev + 1 == index => g.frame(&m).ok(),
+            _ => None,
+        };
+        let input = tracker_input(
+            index,
+            time_s,
+            size,
+            detections,
+            geometry.as_ref(),
+            previous_geometry.as_ref(),
+        );
+        let camera_ned = geometry.map(|g| g.pose_in_reference().position_ned);
+        (input, camera_ned)
+    }
+
+    /// The due track reports and the operator's selected track.
+    fn publish(
+        &mut self,
+        output: &FrameOutput,
+        size: (u32, u32),
+        pose: &FramePose,
+        delivered: CompanionTimeUs,
+        camera_ned: Option<Vector3<f64>>,
+    ) {
+        // Without a pose this frame, the outputs say "geolocation invalid" rather than repeat
+        // an old position.
+        let geolocator = self.geolocator.as_ref().filter(|_| pose.meta.is_ok());
+        let fix = |t: &TrackOutput| -> Option<GeoFix> {
+            Some(geo_fix(
+                geolocator?.reference(),
+                t.world.as_ref()?,
+                pose.water_amsl_m,
+            ))
+        };
+        let timing = FrameTiming {
+            captured: pose.captured_at,
+            delivered,
+            latency: self.latency.clone(),
+        };
+        self.stats.track_messages += self.publisher.publish(
+            output,
+            size,
+            pose.frame_time.unwrap_or(AutopilotTimeUs(0)),
+            &fix,
+            &timing,
+        );
+        self.operator
+            .after_step(output, &self.tracker, size, |t: &TrackOutput| {
+                let f = fix(t);
+                let range_m = match (camera_ned, f, t.world) {
+                    (Some(camera), Some(_), Some(ws)) => {
+                        Some((Vector3::new(ws.pos_ne_m.x, ws.pos_ne_m.y, 0.0) - camera).norm())
+                    }
+                    _ => None,
+                };
+                (f, range_m)
+            });
+    }
+
+    fn record_latency(&mut self, pose: &FramePose, m: Marks) {
+        let done = Instant::now();
+        if let Ok(mut l) = self.latency.lock() {
+            if let Some(c) = pose.captured_at {
+                l.record_between_us(Stage::FrameAge, c.0, m.taken_at.0);
+            }
+            l.record_between_us(Stage::SlotWait, m.delivered.0, m.taken_at.0);
+            l.record(Stage::Detect, m.detected - m.started);
+            if let Some(t) = self.detector.last_timings() {
+                l.record(Stage::DetectInference, t.inference);
+            }
+            l.record(Stage::PoseGeolocate, m.geolocated - m.detected);
+            l.record(Stage::Track, m.tracked - m.geolocated);
+            l.record(Stage::Encode, done - m.tracked);
+            l.record(Stage::Processing, done - m.started);
+        }
+        self.stats.active_us = self
+            .first_taken
+            .map_or(0, |f| (done - f).as_micros() as u64);
+    }
+}
+
+/// Companion times of a frame, for the latency histograms of its track messages.
+struct FrameTiming {
+    /// The capture (exposure) time, when it maps onto the companion clock.
+    captured: Option<CompanionTimeUs>,
+    /// When the frame source delivered the frame to the capture thread.
+    delivered: CompanionTimeUs,
+    latency: Arc<Mutex<Latency>>,
+}
+
+/// Rate-limits track reports per track (`outputs.track_rate_hz`); a track that was just
+/// re-identified is reported at once, with the id it had.
+struct TrackPublisher {
+    period_us: u64,
+    last_sent: HashMap<u64, u64>,
+    outputs: Outputs,
+}
+
+impl TrackPublisher {
+    fn new(rate_hz: f64, outputs: Outputs) -> Self {
+        Self {
+            period_us: (1e6 / rate_hz) as u64,
+            last_sent: HashMap::new(),
+            outputs,
+        }
+    }
+
+    /// Queues the due reports of one frame; returns how many.
+    fn publish(
+        &mut self,
+        output: &FrameOutput,
+        size: (u32, u32),
+        stamp: AutopilotTimeUs,
+        fix: &dyn Fn(&TrackOutput) -> Option<GeoFix>,
+        timing: &FrameTiming,
+    ) -> u64 {
+        // Forget the send times of tracks the tracker no longer reports (a flight sees
+        // thousands of ids; a track that comes back is simply due at once).
+        if self.last_sent.len() > 2 * output.tracks.len() + 64 {
+            self.last_sent
+                .retain(|id, _| output.tracks.iter().any(|t| t.id == *id));
+        }
+        let merged_from: HashMap<u64, u64> = output
+            .merges
+            .iter()
+            .map(|m| (m.merged_into_id, m.new_id))
+            .collect();
+        let mut sent = 0;
+        for t in &output.tracks {
+            let due = self
+                .last_sent
+                .get(&t.id)
+                .is_none_or(|&at| stamp.0.saturating_sub(at) >= self.period_us)
+                || merged_from.contains_key(&t.id);
+            if !due {
+                continue;
+            }
+            self.last_sent.insert(t.id, stamp.0);
+            let report = TrackReport::new(stamp, t, size, merged_from.get(&t.id).copied(), fix(t));
+            self.outputs.track(&report, latency_on_sent(timing));
+            sent += 1;
+        }
+        sent
+    }
+}
+
+/// When a track message reaches the socket: capture -> socket (end to end), delivery -> socket
+/// and queued -> socket are recorded.
+fn latency_on_sent(t: &FrameTiming) -> crate::mavlink::link::OnSent {
+    let (captured, delivered, queued) = (t.captured, t.delivered, crate::clock::now());
+    let latency = t.latency.clone();
+    Box::new(move |now: CompanionTimeUs| {
+        if let Ok(mut l) = latency.lock() {
+            l.record_between_us(Stage::Send, queued.0, now.0);
+            l.record_between_us(Stage::DeliveredToSocket, delivered.0, now.0);
+            if let Some(c) = captured {
+                l.record_between_us(Stage::EndToEnd, c.0, now.0);
+            }
+        }
+    })
+}
+
+/// The periodic log line: frame rate, drops and latency over the last [`LOG_INTERVAL`].
+struct Window {
+    started: Instant,
+    processed: u64,
+    dropped: u64,
+}
+
+impl Window {
+    fn new() -> Self {
+        Self {
+            started: Instant::now(),
+            processed: 0,
+            dropped: 0,
+        }
+    }
+
+    fn log_if_due(&mut self, latency: &Mutex<Latency>, stats: &RunStats, dropped: u64) {
+        let elapsed = self.started.elapsed();
+        if elapsed < LOG_INTERVAL {
+            return;
+        }
+        let Ok(mut l) = latency.lock() else { return };
+        let report: LatencyReport = l.take_window();
+        drop(l);
+        let fps = (stats.frames_processed - self.processed) as f64 / elapsed.as_secs_f64();
+        tracing::info!(
+            fps = format_args!("{fps:.1}"),
+            frames_dropped = dropped - self.dropped,
+            detector_errors = stats.detector_errors,
+            latency = %report.to_log_line(),
+            "pipeline latency, last {:.0} s (p50/p95/p99/max)",
+            elapsed.as_secs_f64()
+        );
+        *self = Self {
+            started: Instant::now(),
+            processed: stats.frames_processed,
+            dropped,
+        };
+    }
+}
