@@ -148,6 +148,8 @@ impl FrameStep {
         };
         let tracked = Instant::now();
         self.stats.frames_processed += 1;
+        // The next frame's motion compensation starts from the frame the tracker just took.
+        self.previous = pose.meta.as_ref().ok().map(|m| (index, *m));
         self.publish(&output, size, &pose, at, camera_ned);
         self.record_latency(
             &pose,
@@ -237,8 +239,6 @@ impl FrameStep {
                 Err(e) => tracing::warn!(error = %e, "camera model"),
             }
         }
-        let previous = self.previous.take();
-        self.previous = meta.map(|m| (index, *m));
         let Some(g) = &self.geolocator else {
             return (
                 tracker_input(index, time_s, size, detections, None, None),
@@ -246,8 +246,8 @@ impl FrameStep {
             );
         };
         let geometry = meta.and_then(|m| g.frame(m).ok());
-        let previous_geometry = match previous {
-            Some((prev, m)) if prev + 1 == index => g.frame(&m).ok(),
+        let previous_geometry = match &self.previous {
+            Some((prev, m)) if prev + 1 == index => g.frame(m).ok(),
             _ => None,
         };
         let input = tracker_input(
