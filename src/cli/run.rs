@@ -23,7 +23,9 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = Config::load(&args.config)?;
+    // The pipeline takes the configuration as written; its settings are checked here, before
+    // anything starts.
+    let (config, _settings) = Config::load(&args.config)?;
     // Opened (and emptied, so no stale stats survive a failed run) before the run starts: an
     // unwritable path is an error now, not after a flight.
     let mut stats_file = args

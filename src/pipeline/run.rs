@@ -373,7 +373,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     let capture = {
         let outbox = outbox.clone();
         super::capture::start(
-            &config.frames,
+            &super::capture::frame_settings(&config.frames)?,
             writer,
             shutdown.clone(),
             captured.clone(),
