@@ -844,35 +844,42 @@ fn check_path(path: &Path2d, p: &mut Problems) {
                 "values must be finite",
             );
         }
-        Path2d::Lawnmower {
-            start_ne_m,
-            heading_deg,
-            leg_length_m,
-            spacing_m,
-            legs,
-        } => {
-            p.require(
-                finite(*leg_length_m) && *leg_length_m > 1.0,
-                "drone.path.leg_length_m",
-                "must be > 1",
-            );
-            p.require(
-                finite(*spacing_m) && *spacing_m > 0.0,
-                "drone.path.spacing_m",
-                "must be > 0",
-            );
-            p.require(
-                (1..=1000).contains(legs),
-                "drone.path.legs",
-                "must be within [1, 1000]",
-            );
-            p.require(
-                all_finite(start_ne_m) && finite(*heading_deg),
-                "drone.path",
-                "values must be finite",
-            );
-        }
+        Path2d::Lawnmower { .. } => check_lawnmower(path, p),
     }
+}
+
+/// `drone.path` of kind `lawnmower` (nothing for another kind).
+fn check_lawnmower(path: &Path2d, p: &mut Problems) {
+    let Path2d::Lawnmower {
+        start_ne_m,
+        heading_deg,
+        leg_length_m,
+        spacing_m,
+        legs,
+    } = path
+    else {
+        return;
+    };
+    p.require(
+        finite(*leg_length_m) && *leg_length_m > 1.0,
+        "drone.path.leg_length_m",
+        "must be > 1",
+    );
+    p.require(
+        finite(*spacing_m) && *spacing_m > 0.0,
+        "drone.path.spacing_m",
+        "must be > 0",
+    );
+    p.require(
+        (1..=1000).contains(legs),
+        "drone.path.legs",
+        "must be within [1, 1000]",
+    );
+    p.require(
+        start_ne_m.iter().all(|v| finite(*v)) && finite(*heading_deg),
+        "drone.path",
+        "values must be finite",
+    );
 }
 
 /// `gimbal.*`; the sweep and swing fields only in their modes.
