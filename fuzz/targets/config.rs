@@ -1,7 +1,7 @@
 //! The runtime configuration: `Config::parse` then `validate`, and what `mgmot check-config`
-//! and `mgmot run` do with a configuration that validated.
+//! and `mgmot run` do with the settings of a configuration that validated.
 
-use mgmot::config::{Config, DetectorConfig, FramesConfig};
+use mgmot::config::{Config, DetectorSettings, FrameSettings, Settings};
 use std::time::Duration;
 
 /// `data` as the text of a configuration file (`Config::load` refuses invalid UTF-8 first).
@@ -20,61 +20,46 @@ pub fn toml(data: &[u8]) {
                 assert!(!p.key.is_empty(), "{p:?}");
                 let _ = p.to_string();
             }
+            // The frames section alone finds its own problems, and only those.
+            if let Err(frames) = config.frames.settings() {
+                assert!(frames.iter().all(|p| problems.contains(p)), "{frames:?}");
+            }
         }
-        Ok(()) => valid(&config),
+        Ok(settings) => valid(&config, &settings),
     }
 }
 
-/// What a configuration that validated must allow: `check-config`'s summary and the values
-/// `mgmot run` derives from it at start-up.
-fn valid(config: &Config) {
-    let _ = summary(config);
-    assert!(mgmot::mavlink::parse_connection(&config.mavlink.connection).is_ok());
+/// What the settings of a configuration that validated must allow: `check-config`'s summary
+/// and the values `mgmot run` derives from them at start-up.
+fn valid(config: &Config, settings: &Settings) {
+    // `mgmot check-config`'s frames line, and the capture start's settings (the same).
+    let _ = settings.frames.to_string();
+    assert_eq!(config.frames.settings().as_ref(), Ok(&settings.frames));
+    if let FrameSettings::V4l2 { camera, reconnect } = &settings.frames {
+        assert!(camera.frame_timeout > Duration::ZERO && reconnect.max >= reconnect.initial);
+    }
+    assert!(mgmot::mavlink::parse_connection(&settings.mavlink.connection).is_ok());
     if let Some(s) = &config.mavlink.signing {
-        assert!(s.key().is_some(), "validated signing key unusable: {s:?}");
+        assert_eq!(
+            s.key(),
+            settings.mavlink.signing.as_ref().map(|s| s.key),
+            "validated signing key unusable: {s:?}"
+        );
     }
-    if let DetectorConfig::Onnx(onnx) = &config.detector {
-        let _ = onnx.settings();
+    if let DetectorSettings::Onnx(onnx) = &settings.detector {
+        assert!(onnx.threads >= 1 && onnx.max_detections >= 1, "{onnx:?}");
     }
-    if let Err(e) = mgmot::track::Tracker::new(config.tracker.clone()) {
+    if let Err(e) = mgmot::track::Tracker::new(settings.tracker.clone()) {
         panic!("validated tracker parameters refused: {e}");
     }
     // src/pipeline/run.rs starts the heartbeat task with
     // `Duration::from_secs_f64(1.0 / config.outputs.heartbeat_hz)`, which panics when the
-    // period is no Duration.
+    // period is no Duration; the settings hold that period.
     let hz = config.outputs.heartbeat_hz;
-    assert!(
-        Duration::try_from_secs_f64(1.0 / hz).is_ok(),
+    assert_eq!(
+        Duration::try_from_secs_f64(1.0 / hz).ok(),
+        Some(settings.outputs.heartbeat_every),
         "outputs.heartbeat_hz = {hz:e} validates, but 1 / heartbeat_hz s is no Duration \
          (mgmot run panics)"
     );
-}
-
-/// The lines `mgmot check-config` prints for a valid configuration (src/cli/check_config.rs).
-fn summary(config: &Config) -> String {
-    let frames = match &config.frames {
-        FramesConfig::V4l2 {
-            device,
-            pixel_format,
-            width_px,
-            height_px,
-            fps,
-            ..
-        } => format!(
-            "v4l2 {} {pixel_format} {width_px}x{height_px} @ {fps} fps",
-            device.display()
-        ),
-        FramesConfig::Sim { socket, .. } => format!("simulator socket {}", socket.display()),
-        FramesConfig::Images { directory, fps, .. } => {
-            format!("images in {} @ {fps} fps", directory.display())
-        }
-    };
-    format!(
-        "  mavlink: {} as {}/{}\n  frames: {frames}\n  outputs: tracks at {} Hz, heartbeat at {} Hz",
-        config.mavlink.connection,
-        config.mavlink.system_id,
-        config.mavlink.component_id,
-        config.outputs.track_rate_hz,
-        config.outputs.heartbeat_hz
-    )
 }

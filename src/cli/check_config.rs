@@ -3,7 +3,7 @@
 use super::stdout::Stdout;
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use mgmot::config::{Config, FramesConfig};
+use mgmot::config::Config;
 use mgmot::formats::input::{self, InputKind};
 use std::io::Write;
 use std::path::PathBuf;
@@ -20,44 +20,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // `Config::load` reads whatever the path names; refuse devices, FIFOs and huge files
     // first (a FIFO without a writer would block, /dev/zero would fill memory).
     input::open(&args.file, InputKind::Config).with_context(|| args.file.display().to_string())?;
-    let config = Config::load(&args.file)?;
-    let frames = match &config.frames {
-        FramesConfig::V4l2 {
-            device,
-            pixel_format,
-            width_px,
-            height_px,
-            fps,
-            ..
-        } => format!(
-            "v4l2 {} {pixel_format} {width_px}x{height_px} @ {fps} fps",
-            device.display()
-        ),
-        FramesConfig::Sim { socket, .. } => format!("simulator socket {}", socket.display()),
-        FramesConfig::Images { directory, fps, .. } => {
-            format!("images in {} @ {fps} fps", directory.display())
-        }
-    };
+    let (config, settings) = Config::load(&args.file)?;
     let mut out = Stdout::lock();
     writeln!(out, "{}: ok", args.file.display())?;
     writeln!(
         out,
         "  mavlink: {} as {}/{}{}",
-        config.mavlink.connection,
-        config.mavlink.system_id,
-        config.mavlink.component_id,
-        if config.mavlink.signing.is_some() {
+        settings.mavlink.connection,
+        settings.mavlink.system_id,
+        settings.mavlink.component_id,
+        if settings.mavlink.signing.is_some() {
             ", signed"
         } else {
             ""
         }
     )?;
-    writeln!(out, "  frames: {frames}")?;
+    writeln!(out, "  frames: {}", settings.frames)?;
     writeln!(
         out,
         "  outputs: tracks at {} Hz{}, heartbeat at {} Hz",
         config.outputs.track_rate_hz,
-        if config.outputs.target_absolute {
+        if settings.outputs.target_absolute {
             " (+ TARGET_ABSOLUTE)"
         } else {
             ""

@@ -23,7 +23,8 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = Config::load(&args.config)?;
+    // The configuration is validated into typed settings once, before anything starts.
+    let (_config, settings) = Config::load(&args.config)?;
     // Opened (and emptied, so no stale stats survive a failed run) before the run starts: an
     // unwritable path is an error now, not after a flight.
     let mut stats_file = args
@@ -61,7 +62,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             trigger.fire();
         });
-        let stats = pipeline::run(config, shutdown).await?;
+        let stats = pipeline::run(settings, shutdown).await?;
         signals.abort();
         eprintln!(
             "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} detector errors, {} track messages",

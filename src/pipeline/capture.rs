@@ -6,10 +6,10 @@
 
 use super::{PipelineError, Shutdown, SlotWriter};
 use crate::camera::{
-    Backoff, CameraError, CameraStatus, Frame, FrameSource, ImageDirectory, PixelFormat, Reconnect,
-    SimSocketSource, V4l2Settings, V4l2Source,
+    Backoff, CameraError, CameraStatus, Frame, FrameSource, ImageDirectory, Reconnect,
+    SimSocketSource, V4l2Source,
 };
-use crate::config::FramesConfig;
+use crate::config::{FrameSettings, ReconnectDelays};
 use crate::telemetry::CompanionTimeUs;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -48,24 +48,18 @@ pub(super) enum CaptureEnd {
 /// or empty one stops the start-up with an error; a missing camera or simulator does not (the
 /// runtime keeps its link up and retries).
 pub(super) fn start(
-    frames: &FramesConfig,
+    frames: &FrameSettings,
     writer: SlotWriter<Delivered>,
     shutdown: Shutdown,
     captured: Arc<AtomicU64>,
     mut report: impl FnMut(CameraStatus) + Send + 'static,
 ) -> Result<JoinHandle<()>, PipelineError> {
     check_access(frames)?;
-    let backoff = |initial_ms: u64, max_ms: u64| {
-        Backoff::new(
-            Duration::from_millis(initial_ms),
-            Duration::from_millis(max_ms),
-        )
-    };
     let stop = shutdown.clone();
     let mut wait = move |d: Duration| wait_unless(&stop, d);
     let wait_for_detector = matches!(
         frames,
-        FramesConfig::Sim {
+        FrameSettings::Sim {
             wait_for_detector: true,
             ..
         }
@@ -82,55 +76,46 @@ pub(super) fn start(
         }
     };
     let stop = move || shutdown.is_shutdown();
-    let (open, reconnect): (Opener, Reconnect) = match frames.clone() {
-        FramesConfig::Sim {
+    let (open, reconnect) = opener(frames.clone())?;
+    std::thread::Builder::new()
+        .name("capture".into())
+        .spawn(move || {
+            let end = capture_loop(
+                open,
+                deliver,
+                reconnect,
+                &stop,
+                &mut wait,
+                &mut report,
+                &captured,
+            );
+            tracing::info!(?end, "capture stopped");
+        })
+        .map_err(|_| PipelineError::Panicked("capture"))
+}
+
+/// The opener of the configured source and its reconnect backoff.
+fn opener(frames: FrameSettings) -> Result<(Opener, Reconnect), PipelineError> {
+    let backoff = |d: ReconnectDelays| Reconnect::new(Backoff::new(d.initial, d.max));
+    Ok(match frames {
+        FrameSettings::Sim {
             socket,
-            frame_timeout_ms,
-            reconnect_initial_ms,
-            reconnect_max_ms,
+            frame_timeout,
+            reconnect,
             wait_for_detector: _,
         } => (
             Box::new(move |_| {
-                SimSocketSource::connect(&socket, Duration::from_millis(frame_timeout_ms))
+                SimSocketSource::connect(&socket, frame_timeout)
                     .map(boxed)
                     .map_err(CameraError::from)
             }),
-            Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms)),
+            backoff(reconnect),
         ),
-        FramesConfig::V4l2 {
-            device,
-            pixel_format,
-            width_px,
-            height_px,
-            fps,
-            buffers,
-            frame_timeout_ms,
-            reconnect_initial_ms,
-            reconnect_max_ms,
-        } => {
-            // Validated with the configuration; a bad name here is a caller's bug, reported.
-            let pixel_format: PixelFormat =
-                pixel_format
-                    .parse()
-                    .map_err(|problem| CameraError::Unsupported {
-                        device: device.clone(),
-                        problem,
-                    })?;
-            let settings = V4l2Settings {
-                device,
-                pixel_format,
-                width_px,
-                height_px,
-                fps,
-                buffers,
-                frame_timeout: Duration::from_millis(frame_timeout_ms),
-            };
-            (
-                Box::new(move |first_index| V4l2Source::open(&settings, first_index).map(boxed)),
-                Reconnect::new(backoff(reconnect_initial_ms, reconnect_max_ms)),
-            )
-        }
-        FramesConfig::Images {
+        FrameSettings::V4l2 { camera, reconnect } => (
+            Box::new(move |first_index| V4l2Source::open(&camera, first_index).map(boxed)),
+            backoff(reconnect),
+        ),
+        FrameSettings::Images {
             directory,
             fps,
             looping,
@@ -153,25 +138,13 @@ pub(super) fn start(
                     }
                     .map(boxed)
                 }),
-                Reconnect::new(backoff(1000, 5000)),
+                backoff(ReconnectDelays {
+                    initial: Duration::from_secs(1),
+                    max: Duration::from_secs(5),
+                }),
             )
         }
-    };
-    std::thread::Builder::new()
-        .name("capture".into())
-        .spawn(move || {
-            let end = capture_loop(
-                open,
-                deliver,
-                reconnect,
-                &stop,
-                &mut wait,
-                &mut report,
-                &captured,
-            );
-            tracing::info!(?end, "capture stopped");
-        })
-        .map_err(|_| PipelineError::Panicked("capture"))
+    })
 }
 
 /// Maps a source's frame indices onto the pipeline's: the first frame of a session gets
@@ -217,19 +190,19 @@ impl IndexRebase {
 /// A frame source that exists but that this user may not open is named at start-up, with the
 /// reason, instead of being retried for ever as "camera lost". One that does not exist yet (a
 /// camera not plugged in, a simulator not started) is left to the reconnect loop.
-fn check_access(frames: &FramesConfig) -> Result<(), PipelineError> {
+fn check_access(frames: &FrameSettings) -> Result<(), PipelineError> {
     let (path, key, hint) = match frames {
-        FramesConfig::Sim { socket, .. } => (
+        FrameSettings::Sim { socket, .. } => (
             socket,
             "frames.socket",
             "the user running mgmot needs write access to the socket",
         ),
-        FramesConfig::V4l2 { device, .. } => (
-            device,
+        FrameSettings::V4l2 { camera, .. } => (
+            &camera.device,
             "frames.device",
             "the user running mgmot needs read and write access (usually the `video` group)",
         ),
-        FramesConfig::Images { .. } => return Ok(()),
+        FrameSettings::Images { .. } => return Ok(()),
     };
     if !path.exists() {
         return Ok(());

@@ -11,7 +11,7 @@ use super::operator_link::OperatorLink;
 use super::telemetry::{FramePose, TelemetryState};
 use super::{Detector, RunStats, Shutdown, SlotReader, Taken};
 use crate::camera::Frame;
-use crate::config::Config;
+use crate::config::Settings;
 use crate::frame::{geo_fix, tracker_input, GeoFix};
 use crate::geo::{CameraModel, FrameMetadata, Geolocator, PoseNoise};
 use crate::health::{Condition, ConditionReport};
@@ -71,7 +71,7 @@ struct Marks {
 impl FrameStep {
     /// A step with its detector, tracker, the shared telemetry and the outputs.
     pub fn new(
-        config: &Config,
+        settings: &Settings,
         detector: Box<dyn Detector>,
         tracker: Tracker,
         telemetry: Arc<Mutex<TelemetryState>>,
@@ -85,15 +85,15 @@ impl FrameStep {
             tracker,
             telemetry,
             geo: GeoSettings {
-                hfov_deg: config.camera.hfov_deg,
-                noise: config.geolocation.noise,
-                max_range_m: config.geolocation.max_range_m,
+                hfov_deg: settings.camera.hfov_deg,
+                noise: settings.geolocation.noise,
+                max_range_m: settings.geolocation.max_range_m,
             },
             geolocator: None,
             previous: None,
             last_time_s: None,
             no_pose_reported: false,
-            publisher: TrackPublisher::new(config.outputs.track_rate_hz, outputs.clone()),
+            publisher: TrackPublisher::new(settings.outputs.track_every, outputs.clone()),
             operator,
             outputs,
             latency,
@@ -346,9 +346,9 @@ struct TrackPublisher {
 }
 
 impl TrackPublisher {
-    fn new(rate_hz: f64, outputs: Outputs) -> Self {
+    fn new(period: Duration, outputs: Outputs) -> Self {
         Self {
-            period_us: (1e6 / rate_hz) as u64,
+            period_us: u64::try_from(period.as_micros()).unwrap_or(u64::MAX),
             last_sent: HashMap::new(),
             outputs,
         }

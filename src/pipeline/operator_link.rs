@@ -27,11 +27,11 @@ pub(super) struct OperatorLink {
 }
 
 impl OperatorLink {
-    /// `point_radius`: the default click radius; `status_hz`: status messages per second.
+    /// `point_radius`: the default click radius; `status_every`: time between status messages.
     pub fn new(
         requests: Receiver<OperatorRequest>,
         point_radius: f64,
-        status_hz: f64,
+        status_every: Duration,
         outputs: Outputs,
     ) -> Self {
         Self {
@@ -39,9 +39,7 @@ impl OperatorLink {
             selection: Selection::new(point_radius),
             candidates: Vec::new(),
             image_size_px: None,
-            // Validated > 0; the fallback only keeps an unchecked config from panicking.
-            status_every: Duration::try_from_secs_f64(1.0 / status_hz)
-                .unwrap_or(Duration::from_millis(200)),
+            status_every,
             last_status: None,
             outputs,
         }

@@ -12,7 +12,7 @@ use super::operator_link::OperatorLink;
 use super::telemetry::TelemetryState;
 use super::{newest_slot, Detector, OnnxDetector, ReplayDetector, Shutdown, Trigger};
 use crate::camera::CameraStatus;
-use crate::config::{Config, DetectorConfig};
+use crate::config::{DetectorSettings, MavlinkSettings, Settings};
 use crate::health::{Condition, ConditionReport};
 use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, LinkStats, OperatorRequest};
 use crate::mavlink::{Outputs, SigningSettings};
@@ -83,25 +83,27 @@ pub struct RunStats {
 }
 
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
-pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
+pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
     // Everything that can fail is set up before anything starts: nothing leaks on an error.
-    let detector: Box<dyn Detector> = match &config.detector {
-        DetectorConfig::Replay {
+    let detector: Box<dyn Detector> = match &settings.detector {
+        DetectorSettings::Replay {
             detections,
             first_image_id,
         } => Box::new(ReplayDetector::load(detections, *first_image_id)?),
-        DetectorConfig::Onnx(onnx) => Box::new(OnnxDetector::load(onnx.settings())?),
+        DetectorSettings::Onnx(onnx) => Box::new(OnnxDetector::load(onnx.clone())?),
     };
-    let tracker =
-        Tracker::new(config.tracker.clone()).map_err(|e| PipelineError::Tracker(e.to_string()))?;
-    let (link, inbox, outputs) =
-        link::bridge::start(link_settings(&config), config.outputs.target_absolute)?;
+    let tracker = Tracker::new(settings.tracker.clone())
+        .map_err(|e| PipelineError::Tracker(e.to_string()))?;
+    let (link, inbox, outputs) = link::bridge::start(
+        link_settings(&settings.mavlink),
+        settings.outputs.target_absolute,
+    )?;
     // The tasks and threads below stop on `stop`: the caller's shutdown, or the source's end.
     let (stop_trigger, stop) = super::shutdown_signal();
     let stop_trigger = Arc::new(stop_trigger);
     let forward = forward_shutdown(shutdown, stop_trigger.clone());
 
-    let telemetry = Arc::new(Mutex::new(TelemetryState::new(&config)));
+    let telemetry = Arc::new(Mutex::new(TelemetryState::new(&settings.telemetry)));
     let (request_tx, request_rx) = std::sync::mpsc::sync_channel(REQUEST_QUEUE);
     let mut tasks = JoinSet::new();
     tasks.spawn(receive(
@@ -115,8 +117,8 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         outputs.clone(),
         telemetry.clone(),
         stop.clone(),
-        Duration::from_secs_f64(1.0 / config.outputs.heartbeat_hz),
-        Duration::from_secs_f64(config.telemetry.lost_after_ms / 1000.0),
+        settings.outputs.heartbeat_every,
+        settings.telemetry.lost_after,
     ));
 
     let (writer, reader) = newest_slot::<Delivered>();
@@ -124,7 +126,7 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
     let mut camera = ConditionReport::new(Condition::Camera);
     let camera_outputs = outputs.clone();
     let capture = super::capture::start(
-        &config.frames,
+        &settings.frames,
         writer,
         stop.clone(),
         captured.clone(),
@@ -139,12 +141,12 @@ pub async fn run(config: Config, shutdown: Shutdown) -> Result<RunStats, Pipelin
         let latency = Arc::new(Mutex::new(Latency::new()));
         let operator = OperatorLink::new(
             request_rx,
-            config.outputs.track_point_radius,
-            config.outputs.camera_tracking_hz,
+            settings.outputs.track_point_radius,
+            settings.outputs.camera_tracking_every,
             outputs.clone(),
         );
         let step = FrameStep::new(
-            &config,
+            &settings,
             detector,
             tracker,
             telemetry,
@@ -254,8 +256,7 @@ async fn join_capture(capture: std::thread::JoinHandle<()>) {
 }
 
 /// The link's settings from the configuration.
-fn link_settings(config: &Config) -> LinkSettings {
-    let m = &config.mavlink;
+fn link_settings(m: &MavlinkSettings) -> LinkSettings {
     let streams = if m.stream_rate_hz > 0.0 {
         link::STREAMS
             .iter()
@@ -270,15 +271,13 @@ fn link_settings(config: &Config) -> LinkSettings {
         component_id: m.component_id,
         autopilot_component_id: m.autopilot_component_id,
         udp_peer: m.udp_peer,
-        signing: m.signing.as_ref().and_then(|s| {
-            s.key().map(|key| SigningSettings {
-                key,
-                link_id: s.link_id,
-                state_file: Some(s.state_file.clone()),
-            })
+        signing: m.signing.as_ref().map(|s| SigningSettings {
+            key: s.key,
+            link_id: s.link_id,
+            state_file: Some(s.state_file.clone()),
         }),
         streams,
-        timesync_hz: m.timesync_hz,
+        timesync_hz: m.timesync_every.map_or(0.0, |d| 1.0 / d.as_secs_f64()),
         accept_unsigned_telemetry: m
             .signing
             .as_ref()

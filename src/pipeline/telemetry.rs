@@ -3,7 +3,7 @@
 //! it: where was the camera when this frame was exposed?
 
 use crate::camera::CaptureTime;
-use crate::config::Config;
+use crate::config::TelemetrySettings;
 use crate::geo::{FrameMetadata, Geodetic};
 use crate::mavlink::TelemetryUpdate;
 use crate::telemetry::{AutopilotTimeUs, ClockSync, CompanionTimeUs, NoPose, PoseBuffer};
@@ -39,9 +39,8 @@ pub(super) struct FramePose {
 
 impl TelemetryState {
     /// Nothing heard yet.
-    pub fn new(config: &Config) -> Self {
-        let t = &config.telemetry;
-        let mut poses = PoseBuffer::new((t.max_pose_age_ms * 1000.0) as u64);
+    pub fn new(t: &TelemetrySettings) -> Self {
+        let mut poses = PoseBuffer::new(micros(t.max_pose_age));
         if let Some(pitch) = t.fixed_mount_pitch_deg {
             poses = poses.with_fixed_mount(UnitQuaternion::from_euler_angles(
                 0.0,
@@ -55,7 +54,7 @@ impl TelemetryState {
             home: None,
             last_position_at: None,
             water_level_amsl_m: t.water_level_amsl_m,
-            camera_latency_us: (t.camera_latency_ms * 1000.0) as u64,
+            camera_latency_us: micros(t.camera_latency),
         }
     }
 
@@ -125,4 +124,8 @@ impl TelemetryState {
             water_amsl_m,
         }
     }
+}
+
+fn micros(d: std::time::Duration) -> u64 {
+    u64::try_from(d.as_micros()).unwrap_or(u64::MAX)
 }

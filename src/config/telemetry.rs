@@ -1,0 +1,104 @@
+//! `[telemetry]`: how telemetry is turned into a camera pose per frame.
+
+use super::problems::{millis, Problems};
+use serde::{Deserialize, Serialize};
+use std::time::Duration;
+
+/// Telemetry -> camera pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TelemetryConfig {
+    /// A frame whose nearest sample of any needed stream is further than this from its
+    /// capture time gets no pose (no geolocation) rather than a stale one (ms).
+    pub max_pose_age_ms: f64,
+    /// Delay from the real exposure to the frame's timestamp (ms); the pose is taken at
+    /// `timestamp - camera_latency_ms`.
+    pub camera_latency_ms: f64,
+    /// Water surface altitude AMSL (m); absent: the home position is at the waterline.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub water_level_amsl_m: Option<f64>,
+    /// Telemetry is reported lost (STATUSTEXT) when no position arrives for this long (ms).
+    pub lost_after_ms: f64,
+    /// Camera hard-mounted to the body instead of on a gimbal: its pitch (deg, negative =
+    /// down) relative to the body; absent: the gimbal's telemetry is used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed_mount_pitch_deg: Option<f64>,
+}
+
+impl Default for TelemetryConfig {
+    fn default() -> Self {
+        Self {
+            max_pose_age_ms: 200.0,
+            camera_latency_ms: 0.0,
+            water_level_amsl_m: None,
+            lost_after_ms: 2000.0,
+            fixed_mount_pitch_deg: None,
+        }
+    }
+}
+
+/// The validated telemetry settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TelemetrySettings {
+    /// Oldest usable sample, relative to a frame's capture time (> 0, at most 60 s).
+    pub max_pose_age: Duration,
+    /// Delay from the real exposure to the frame's timestamp (at most 10 s).
+    pub camera_latency: Duration,
+    /// Water surface altitude AMSL (m, -500..=9000); `None`: the home position's.
+    pub water_level_amsl_m: Option<f64>,
+    /// Telemetry is reported lost after this long without a position (> 0, at most 1 h).
+    pub lost_after: Duration,
+    /// Pitch of a hard-mounted camera (deg, -90..=90); `None`: on a gimbal.
+    pub fixed_mount_pitch_deg: Option<f64>,
+}
+
+impl TelemetryConfig {
+    /// The telemetry settings, or the section's problems pushed onto `p`.
+    pub fn validate(&self, p: &mut Problems) -> Option<TelemetrySettings> {
+        let max_pose_age = p
+            .within_open(
+                "telemetry.max_pose_age_ms",
+                self.max_pose_age_ms,
+                0.0,
+                60_000.0,
+            )
+            .and_then(|ms| millis(p, "telemetry.max_pose_age_ms", ms));
+        let camera_latency = p
+            .within_closed(
+                "telemetry.camera_latency_ms",
+                self.camera_latency_ms,
+                0.0,
+                10_000.0,
+            )
+            .and_then(|ms| millis(p, "telemetry.camera_latency_ms", ms));
+        let lost_after = p
+            .within_open(
+                "telemetry.lost_after_ms",
+                self.lost_after_ms,
+                0.0,
+                3_600_000.0,
+            )
+            .and_then(|ms| millis(p, "telemetry.lost_after_ms", ms));
+        // The Dead Sea shore to far above any sea.
+        let water_level_amsl_m = match self.water_level_amsl_m {
+            Some(v) => p
+                .within_closed("telemetry.water_level_amsl_m", v, -500.0, 9000.0)
+                .map(Some),
+            None => Some(None),
+        };
+        let pitch = self.fixed_mount_pitch_deg;
+        let fixed_mount_pitch_deg = p.check(
+            pitch.is_none_or(|v| v.is_finite() && (-90.0..=90.0).contains(&v)),
+            "telemetry.fixed_mount_pitch_deg",
+            "must be in -90..=90",
+            pitch,
+        );
+        Some(TelemetrySettings {
+            max_pose_age: max_pose_age?,
+            camera_latency: camera_latency?,
+            water_level_amsl_m: water_level_amsl_m?,
+            lost_after: lost_after?,
+            fixed_mount_pitch_deg: fixed_mount_pitch_deg?,
+        })
+    }
+}
