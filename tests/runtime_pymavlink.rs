@@ -46,7 +46,7 @@ fn pymavlink_decodes_mgmot_messages() {
     }
     require_python("pymavlink_decodes_mgmot_messages", &["pymavlink"]);
     let dir = TestDir::new();
-    let frames = dir.write("frames.bin", &bytes);
+    let frames = dir.write("frames.bin", bytes);
     let out = TestCommand::new("python3")
         .arg(repo_file("scripts/runtime_pymavlink_decode.py"))
         .arg(&frames)

@@ -83,6 +83,12 @@ impl TestDir {
     }
 }
 
+impl Default for TestDir {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl Drop for TestDir {
     fn drop(&mut self) {
         let asked =
