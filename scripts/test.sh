@@ -10,7 +10,9 @@ if [ ! -d ../shared/data/seadronessee ]; then
   exit 1
 fi
 
-# Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv.
+# Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv. The tests that
+# need an outside tool (these, ONNX Runtime below) fail, naming it, when it is missing: none of
+# them passes as a skip.
 if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink" 2>/dev/null; then
   echo "== python venv for the cross-checks (.venv)"
   if ! python3 -m venv .venv 2>/dev/null; then
@@ -22,12 +24,13 @@ if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pyma
 fi
 export PATH="$PWD/.venv/bin:$PATH"
 
-# ONNX Runtime (from the onnxruntime wheel on PyPI) for the tract/onnxruntime parity test.
+# ONNX Runtime (from the onnxruntime wheel on PyPI) for the tests that need it (the
+# tract/onnxruntime parity and default-backend tests in tests/detect_cli.rs).
 if [ -z "${ORT_DYLIB_PATH:-}" ]; then
   if ORT_DYLIB_PATH="$(bash scripts/detect_fetch_onnxruntime.sh)"; then
     export ORT_DYLIB_PATH
   else
-    echo "test: could not fetch the onnxruntime wheel; the backend parity test will say it skipped" >&2
+    echo "test: could not fetch the onnxruntime wheel; the tests that need ONNX Runtime will fail, naming ORT_DYLIB_PATH" >&2
     unset ORT_DYLIB_PATH
   fi
 fi

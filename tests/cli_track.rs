@@ -1,36 +1,18 @@
 //! `mgmot track` and `mgmot geolocate` run as real processes on the real SeaDronesSee subset.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/seadronessee");
+use common::{shared_data as data, TestDir};
 
-fn data(name: &str) -> String {
-    let p = format!("{DATA}/{name}");
-    assert!(
-        Path::new(&p).exists(),
-        "fixture missing: {p} (../shared must sit beside the repo)"
-    );
-    p
-}
-
+/// `mgmot ARGS`, which must succeed.
 fn mgmot(args: &[&str]) -> std::process::Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "mgmot {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
+    common::mgmot().args(args).ok()
 }
 
 #[test]
 fn tracks_real_detections_in_both_modes() {
     for mode in ["online", "offline"] {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = TestDir::new();
         let out_dir = dir.path().to_str().unwrap();
         let out = mgmot(&[
             "track",
@@ -87,7 +69,7 @@ fn tracks_real_detections_in_both_modes() {
 
 #[test]
 fn tracks_without_metadata() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let out = mgmot(&[
         "track",
         "--annotations",
@@ -108,7 +90,7 @@ fn tracks_without_metadata() {
 
 #[test]
 fn geolocate_writes_the_documented_csv() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let csv_path = dir.path().join("g.csv");
     let out = mgmot(&[
         "geolocate",
@@ -137,14 +119,14 @@ fn geolocate_writes_the_documented_csv() {
 
 #[test]
 fn bad_input_is_a_clear_error_not_a_panic() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let bad = dir.path().join("bad.json");
     std::fs::write(
         &bad,
         r#"{"images": [{"id": 1, "width": 10, "height": 10, "meta": {"latitude": "north"}}]}"#,
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let out = common::mgmot()
         .args([
             "geolocate",
             "--annotations",
@@ -152,8 +134,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
             "--out",
             "/tmp/x.csv",
         ])
-        .output()
-        .unwrap();
+        .output();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -162,7 +143,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
     );
     let det = dir.path().join("det.txt");
     std::fs::write(&det, "1,-1,10,10,5,5,0.9,1\n2,-1,10,10,oops,5,0.9,1\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let out = common::mgmot()
         .args([
             "track",
             "--annotations",
@@ -174,8 +155,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
             "--out",
             dir.path().to_str().unwrap(),
         ])
-        .output()
-        .unwrap();
+        .output();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("det.txt:2") && err.contains("width"), "{err}");

@@ -3,25 +3,14 @@
 //! numbers from the command line and the tracker parameters are finite and in range, with the
 //! flag or key named in the error.
 
+mod common;
+
+use common::{shared_data as real_data, TestDir};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/seadronessee");
-
-fn real_data(name: &str) -> String {
-    let p = format!("{DATA}/{name}");
-    assert!(
-        Path::new(&p).exists(),
-        "fixture missing: {p} (../shared must sit beside the repo)"
-    );
-    p
-}
+use std::process::Output;
 
 fn mgmot(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .args(args)
-        .output()
-        .unwrap()
+    common::mgmot().args(args).output()
 }
 
 fn stderr(out: &Output) -> String {
@@ -105,7 +94,7 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
 
 #[test]
 fn track_refuses_video_names_that_leave_the_out_folder() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     // A folder an absolute video name would write into, beside --out.
     let victim = tmp.path().join("victim");
     std::fs::create_dir(&victim).unwrap();
@@ -181,7 +170,7 @@ fn track_refuses_video_names_that_leave_the_out_folder() {
 
 #[test]
 fn track_writes_plain_video_names_inside_out() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let (ann, det) = write_dataset(tmp.path(), r#""folder_name": "DJI_0001.v2""#, 5);
     let out_dir = tmp.path().join("out");
     let args = track_args(&ann, &det, &out_dir);
@@ -203,7 +192,7 @@ fn assert_flag_refused(args: &[&str], flag: &str) {
 
 #[test]
 fn geolocate_refuses_non_finite_and_out_of_range_noise() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let (ann, _) = write_dataset(tmp.path(), r#""folder_name": "v""#, 2);
     let out_csv = tmp.path().join("geo.csv");
     let base = [
@@ -250,7 +239,7 @@ fn geolocate_refuses_non_finite_and_out_of_range_noise() {
 
 #[test]
 fn track_refuses_non_finite_and_out_of_range_numbers() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let (ann, det) = write_dataset(tmp.path(), r#""folder_name": "v""#, 3);
     let out_dir = tmp.path().join("out");
     let base = track_args(&ann, &det, &out_dir);
@@ -320,18 +309,12 @@ fn track_real_with_params(dir: &Path, params: &str) -> (Output, PathBuf) {
         out_dir.to_str().unwrap(),
     ]
     .map(str::to_owned);
-    (
-        Command::new(env!("CARGO_BIN_EXE_mgmot"))
-            .args(&args)
-            .output()
-            .unwrap(),
-        out_dir,
-    )
+    (common::mgmot().args(&args).output(), out_dir)
 }
 
 #[test]
 fn tracker_parameters_that_overflow_the_filter_are_refused() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     for (params, key) in [
         (
             "[baseline]\nworld_accel_std_m_s2 = 1e308\n",

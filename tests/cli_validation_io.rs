@@ -6,46 +6,19 @@
 //! Every command runs under a deadline and is killed past it, so that a regression (a read
 //! that blocks on a FIFO, a run that never ends) fails the test instead of hanging it.
 
+mod common;
+
+use common::{mgmot, mgmot_run, repo_file, run_config, TestCommand, TestDir};
 use std::ffi::CString;
 use std::os::fd::{FromRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::mpsc;
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn mgmot() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_mgmot"));
-    c.stdin(Stdio::null());
-    c
-}
-
-/// Runs `cmd` to completion, or kills it after `limit` and panics (naming `what`).
-fn run_with_deadline(mut cmd: Command, limit: Duration, what: &str) -> Output {
-    let child = cmd.stderr(Stdio::piped()).spawn().unwrap();
-    let pid = child.id();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(limit) {
-        Ok(out) => out.unwrap(),
-        Err(_) => {
-            // SAFETY: `pid` is the child this test spawned and has not reaped yet.
-            unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) };
-            let _ = rx.recv();
-            panic!("{what}: still running after {limit:?} (killed)");
-        }
-    }
-}
-
-/// A command with stdout and stderr captured, run under a 60 s deadline.
-fn output(mut cmd: Command, what: &str) -> Output {
-    cmd.stdout(Stdio::piped());
-    run_with_deadline(cmd, Duration::from_secs(60), what)
+/// Runs `cmd` to completion with stdout and stderr captured, or kills it after 60 s and
+/// fails (naming `what`).
+fn output(cmd: &mut TestCommand, what: &str) -> Output {
+    cmd.output_within(Duration::from_secs(60), what)
 }
 
 fn stderr(out: &Output) -> String {
@@ -129,15 +102,15 @@ fn write_mot(dir: &Path, name: &str) -> PathBuf {
 
 #[test]
 fn every_command_ends_quietly_when_stdout_is_closed() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let (ann, det) = write_dataset(tmp.path());
     let gt = write_mot(tmp.path(), "gt.txt");
     let pred = write_mot(tmp.path(), "pred.txt");
-    let example = root().join("systemd/mgmot.example.toml");
-    let geo = tmp.path().join("geo.csv");
-    let model = root().join("models/mgmot-det-fp32.onnx");
-    let images = root().join("tests/fixtures/detect");
-    let out_dir = tmp.path().join("out");
+    let example = repo_file("systemd/mgmot.example.toml");
+    let geo = tmp.join("geo.csv");
+    let model = repo_file("models/mgmot-det-fp32.onnx");
+    let images = repo_file("tests/fixtures/detect");
+    let out_dir = tmp.join("out");
     let commands: Vec<(&str, Vec<&std::ffi::OsStr>)> = vec![
         ("check-config", vec![example.as_os_str()]),
         (
@@ -185,10 +158,12 @@ fn every_command_ends_quietly_when_stdout_is_closed() {
         ),
     ];
     for (command, args) in commands {
-        let mut cmd = mgmot();
-        cmd.arg(command).args(&args).stdout(closed_pipe());
         let what = format!("mgmot {command} {args:?} | (closed)");
-        let out = run_with_deadline(cmd, Duration::from_secs(120), &what);
+        let out = mgmot()
+            .arg(command)
+            .args(&args)
+            .stdout(closed_pipe())
+            .output_within(Duration::from_secs(120), &what);
         let err = stderr(&out);
         assert!(!err.contains("panicked"), "{what}: {err}");
         assert!(err.is_empty(), "{what}: not quiet: {err}");
@@ -199,7 +174,7 @@ fn every_command_ends_quietly_when_stdout_is_closed() {
 
 #[test]
 fn non_regular_input_files_are_refused_not_read() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let dir = tmp.path();
     let (ann, det) = write_dataset(dir);
     let gt = write_mot(dir, "gt.txt");
@@ -331,9 +306,7 @@ fn non_regular_input_files_are_refused_not_read() {
 
     for (args, refused) in cases {
         let what = format!("mgmot {}", args.join(" "));
-        let mut cmd = mgmot();
-        cmd.args(&args);
-        let out = output(cmd, &what);
+        let out = output(mgmot().args(&args), &what);
         let err = stderr(&out);
         assert!(!out.status.success(), "{what}: accepted");
         assert!(err.contains(refused.to_str().unwrap()), "{what}: {err}");
@@ -348,7 +321,7 @@ fn non_regular_input_files_are_refused_not_read() {
 
 #[test]
 fn oversized_input_files_are_refused_naming_the_bound() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let dir = tmp.path();
     let (ann, det) = write_dataset(dir);
     // Sparse files: they take no disk space and are refused before they are read.
@@ -403,9 +376,7 @@ fn oversized_input_files_are_refused_naming_the_bound() {
     ];
     for (args, path, bound) in cases {
         let what = format!("mgmot {}", args.join(" "));
-        let mut cmd = mgmot();
-        cmd.args(&args);
-        let out = output(cmd, &what);
+        let out = output(mgmot().args(&args), &what);
         let err = stderr(&out);
         assert!(!out.status.success(), "{what}: accepted");
         assert!(err.contains(path.to_str().unwrap()), "{what}: {err}");
@@ -415,42 +386,31 @@ fn oversized_input_files_are_refused_naming_the_bound() {
 
 /// A runtime config that runs until stopped: frames from a simulator socket nobody serves
 /// (mgmot retries it with backoff), replayed detections, MAVLink out to `gcs_port`.
-fn idle_run_config(dir: &Path, gcs_port: u16) -> PathBuf {
-    let dets = dir.join("dets.json");
-    std::fs::write(&dets, "[]").unwrap();
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "[mavlink]\nconnection = \"udpout:127.0.0.1:{gcs_port}\"\nstream_rate_hz = 0\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\n\
-             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
-            dir.join("nobody.sock").display(),
-            dets.display()
-        ),
-    )
-    .unwrap();
-    config
+fn idle_run_config(dir: &TestDir, gcs_port: u16) -> PathBuf {
+    let mut c = run_config(
+        &format!("udpout:127.0.0.1:{gcs_port}"),
+        &dir.join("nobody.sock"),
+        &dir.empty_detections(),
+    );
+    c.mavlink.stream_rate_hz = 0.0;
+    dir.write_config("run.toml", &c)
 }
 
 #[test]
 fn run_checks_its_stats_file_before_starting() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let gcs = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    let config = idle_run_config(tmp.path(), gcs.local_addr().unwrap().port());
-    let check = mgmot().arg("check-config").arg(&config).output().unwrap();
+    let config = idle_run_config(&tmp, gcs.local_addr().unwrap().port());
+    let check = mgmot().arg("check-config").arg(&config).output();
     assert!(check.status.success(), "{}", stderr(&check));
 
     // Unwritable: its folder does not exist. Refused at once, not after the run.
-    let stats = tmp.path().join("no-such-folder/stats.json");
-    let mut cmd = mgmot();
-    cmd.arg("run")
-        .arg("--config")
-        .arg(&config)
-        .arg("--stats-json")
-        .arg(&stats);
+    let stats = tmp.join("no-such-folder/stats.json");
     let started = Instant::now();
-    let out = output(cmd, "mgmot run with an unwritable --stats-json");
+    let out = output(
+        &mut mgmot_run(&config, Some(&stats)),
+        "mgmot run with an unwritable --stats-json",
+    );
     let err = stderr(&out);
     assert!(!out.status.success(), "{err}");
     assert!(err.contains(stats.to_str().unwrap()), "{err}");
@@ -462,35 +422,17 @@ fn run_checks_its_stats_file_before_starting() {
     assert!(started.elapsed() < Duration::from_secs(30));
 
     // Writable: the run goes on until SIGTERM and writes the stats at exit.
-    let stats = tmp.path().join("stats.json");
+    let stats = tmp.join("stats.json");
     std::fs::write(&stats, "stale").unwrap();
-    let child = mgmot()
-        .arg("run")
-        .arg("--config")
-        .arg(&config)
-        .arg("--stats-json")
-        .arg(&stats)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let pid = child.id();
+    let mut run = mgmot_run(&config, Some(&stats)).spawn_logged(tmp.join("run.log"));
     std::thread::sleep(Duration::from_secs(2));
     // Emptied at start-up: no stale stats while running.
     assert_eq!(std::fs::read_to_string(&stats).unwrap(), "");
-    // SAFETY: `pid` is the child spawned above, not yet reaped.
-    unsafe { libc::kill(pid as libc::pid_t, libc::SIGTERM) };
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    let Ok(out) = rx.recv_timeout(Duration::from_secs(30)) else {
-        // SAFETY: as above.
-        unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) };
-        panic!("mgmot run did not stop on SIGTERM");
-    };
-    let out = out.unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
+    run.sigterm();
+    let status = run
+        .wait_within(Duration::from_secs(30))
+        .expect("mgmot run did not stop on SIGTERM");
+    assert!(status.success(), "{}", run.log());
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert!(json.get("frames_captured").is_some(), "{json}");

@@ -1,18 +1,20 @@
 //! `mgmot detect` end to end, and tract / ONNX Runtime parity on the shipped
 //! model. Each backend runs in its own process (ort's API table is
 //! process-global), so the comparison goes through the CLI's JSON output.
+//!
+//! The ONNX Runtime tests need its library named by `ORT_DYLIB_PATH`
+//! (scripts/detect_fetch_onnxruntime.sh prints it; scripts/test.sh sets it):
+//! without it they fail, saying so.
 
+mod common;
+
+use common::{mgmot, missing_tool, repo_file, TestDir};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn fixtures() -> PathBuf {
-    root().join("tests/fixtures/detect")
+    repo_file("tests/fixtures/detect")
 }
 
 const INT8: &str = "models/mgmot-det-int8.onnx";
@@ -20,14 +22,13 @@ const FP32: &str = "models/mgmot-det-fp32.onnx";
 
 /// Runs `mgmot detect --json` and returns the parsed results.
 fn detect_json(model: &str, backend: &str, extra: &[&str]) -> Vec<Value> {
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let out = mgmot()
         .args(["detect", "--json", "--model"])
-        .arg(root().join(model))
+        .arg(repo_file(model))
         .arg(fixtures())
         .args(["--backend", backend])
         .args(extra)
-        .output()
-        .unwrap();
+        .output();
     assert!(
         out.status.success(),
         "mgmot detect --backend {backend} failed: {}",
@@ -42,15 +43,14 @@ fn detect_json(model: &str, backend: &str, extra: &[&str]) -> Vec<Value> {
 
 #[test]
 fn detect_writes_coco_json_and_drawn_images() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let dir = TestDir::new();
+    let out = mgmot()
         .args(["detect", "--json", "--model"])
-        .arg(root().join(INT8))
+        .arg(repo_file(INT8))
         .arg(fixtures())
         .arg("--out")
         .arg(dir.path())
-        .output()
-        .unwrap();
+        .output();
     assert!(
         out.status.success(),
         "{}",
@@ -83,15 +83,15 @@ fn detect_writes_coco_json_and_drawn_images() {
 
 /// `mgmot detect` without `--backend`: its summary's first line.
 fn default_backend_line(ort_dylib: Option<&Path>) -> String {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_mgmot"));
+    let mut cmd = mgmot();
     cmd.args(["detect", "--model"])
-        .arg(root().join(INT8))
+        .arg(repo_file(INT8))
         .arg(fixtures());
     match ort_dylib {
         Some(lib) => cmd.env("ORT_DYLIB_PATH", lib),
         None => cmd.env_remove("ORT_DYLIB_PATH"),
     };
-    let out = cmd.output().unwrap();
+    let out = cmd.output();
     assert!(
         out.status.success(),
         "{}",
@@ -115,24 +115,18 @@ fn default_backend_is_tract_without_onnxruntime() {
 
 #[test]
 fn default_backend_is_onnxruntime_where_available() {
-    let lib = match onnxruntime_library() {
-        Ok(lib) => lib,
-        Err(why) => {
-            missing_tool("default backend with ONNX Runtime", &why);
-            return;
-        }
-    };
+    let lib = onnxruntime_library()
+        .unwrap_or_else(|why| missing_tool("default backend with ONNX Runtime", &why));
     let line = default_backend_line(Some(&lib));
     assert!(line.contains("backend onnxruntime"), "{line}");
 }
 
 #[test]
 fn missing_model_is_a_clear_error() {
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let out = mgmot()
         .args(["detect", "--model", "/nonexistent/m.onnx"])
         .arg(fixtures())
-        .output()
-        .unwrap();
+        .output();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -141,21 +135,7 @@ fn missing_model_is_a_clear_error() {
     );
 }
 
-/// A cross-check whose tool is missing fails, naming what to install, so that a run without
-/// the tool cannot look like a pass; `MGMOT_ALLOW_MISSING_TOOLS=1` turns that into a printed skip
-/// for a developer's quick run (scripts/test.sh and CI always provide the tools).
-fn missing_tool(test: &str, why: &str) {
-    if std::env::var_os("MGMOT_ALLOW_MISSING_TOOLS").is_some_and(|v| v == "1") {
-        eprintln!("SKIPPED {test} (MGMOT_ALLOW_MISSING_TOOLS=1): {why}");
-    } else {
-        panic!(
-            "{test} needs a tool that is missing: {why}. scripts/test.sh provides it; \
-             set MGMOT_ALLOW_MISSING_TOOLS=1 to skip this check instead"
-        );
-    }
-}
-
-/// The ONNX Runtime library for the parity test, or why it cannot run.
+/// The ONNX Runtime library for the tests that need it, or why it is not there.
 fn onnxruntime_library() -> Result<PathBuf, String> {
     match std::env::var_os("ORT_DYLIB_PATH").filter(|v| !v.is_empty()) {
         None => Err(
@@ -193,13 +173,8 @@ fn assert_covered(a: &[Value], b: &[Value], score_tol: f64, what: &str) {
 
 #[test]
 fn tract_and_onnxruntime_agree_on_the_shipped_models() {
-    let lib = match onnxruntime_library() {
-        Ok(lib) => lib,
-        Err(why) => {
-            missing_tool("tract/onnxruntime parity", &why);
-            return;
-        }
-    };
+    let lib =
+        onnxruntime_library().unwrap_or_else(|why| missing_tool("tract/onnxruntime parity", &why));
     // fp32 and int8 on whole frames: over 60 rendered leave_and_return frames
     // (scripts/detect_parity.py, 121 detections) the engines differed by at
     // most 1.2e-4 px / 3e-7 (fp32) and 6e-5 px / 0 (int8); the check uses the

@@ -1,16 +1,13 @@
 //! `mgmot check-config` on the shipped example and on broken files, as a user runs it.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-fn mgmot() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mgmot"))
-}
+use common::{mgmot, repo_file, TestDir};
 
 #[test]
 fn example_config_is_ok() {
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("systemd/mgmot.example.toml");
-    let out = mgmot().arg("check-config").arg(&example).output().unwrap();
+    let example = repo_file("systemd/mgmot.example.toml");
+    let out = mgmot().arg("check-config").arg(&example).output();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -23,7 +20,7 @@ fn example_config_is_ok() {
 
 #[test]
 fn errors_name_the_file_and_the_keys() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let bad = dir.path().join("bad.toml");
     std::fs::write(
         &bad,
@@ -45,7 +42,7 @@ detections = "d.json"
 "#,
     )
     .unwrap();
-    let out = mgmot().arg("check-config").arg(&bad).output().unwrap();
+    let out = mgmot().arg("check-config").arg(&bad).output();
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     for needle in [
@@ -65,7 +62,7 @@ detections = "d.json"
         "[mavlink]\nconnection = \"udpin:0.0.0.0:1\"\nrate = 3\n",
     )
     .unwrap();
-    let out = mgmot().arg("check-config").arg(&typo).output().unwrap();
+    let out = mgmot().arg("check-config").arg(&typo).output();
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -8,54 +8,45 @@
 
 mod common;
 
-use common::{free_udp_port, Proc};
+use common::{free_udp_port, mgmot, mgmot_run, run_config, Proc, TestCommand, TestDir};
 use mgmot::camera::sim_framing::{end_of_stream, FrameHeader};
+use mgmot::config::FramesConfig;
 use std::io::Write;
 use std::os::unix::net::{UnixListener, UnixStream};
-use std::path::Path;
-use std::process::{Command, ExitStatus, Stdio};
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// A config for `mgmot run` reading frames from `socket`, detections replayed from an empty
 /// file (no detector needed: these tests are about the frame path).
-fn config(dir: &Path, socket: &Path) -> std::path::PathBuf {
-    let dets = dir.join("dets.json");
-    std::fs::write(&dets, "[]").unwrap();
-    let path = dir.join("mgmot.toml");
-    std::fs::write(
-        &path,
-        format!(
-            "[mavlink]\nconnection = \"udpin:127.0.0.1:{}\"\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\nframe_timeout_ms = 5000\n\
-             reconnect_initial_ms = 100\nreconnect_max_ms = 200\n\
-             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
-            free_udp_port(),
-            socket.display(),
-            dets.display()
-        ),
-    )
-    .unwrap();
-    path
+fn config(dir: &TestDir, socket: &Path) -> PathBuf {
+    let mut c = run_config(
+        &format!("udpin:127.0.0.1:{}", free_udp_port()),
+        socket,
+        &dir.empty_detections(),
+    );
+    let FramesConfig::Sim {
+        frame_timeout_ms,
+        reconnect_initial_ms,
+        reconnect_max_ms,
+        ..
+    } = &mut c.frames
+    else {
+        unreachable!()
+    };
+    (*frame_timeout_ms, *reconnect_initial_ms, *reconnect_max_ms) = (5000, 100, 200);
+    dir.write_config("mgmot.toml", &c)
 }
 
-fn start(config: &Path, stats: &Path) -> Proc {
-    let log = std::fs::File::create(config.with_extension("log")).unwrap();
-    Proc(
-        Command::new(env!("CARGO_BIN_EXE_mgmot"))
-            .args(["run", "--config"])
-            .arg(config)
-            .arg("--stats-json")
-            .arg(stats)
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap(),
-    )
-}
-
-/// mgmot's log of the run started with `config`.
-fn log_of(config: &Path) -> String {
-    std::fs::read_to_string(config.with_extension("log")).unwrap_or_default()
+/// `mgmot run` on a frame socket this test serves: the folder, the socket's listener, the
+/// stats file and the process (declared in this order, so that the process goes first).
+fn start() -> (TestDir, UnixListener, PathBuf, Proc) {
+    let dir = TestDir::new();
+    let socket = dir.join("frames.sock");
+    let listener = UnixListener::bind(&socket).unwrap();
+    let stats = dir.join("stats.json");
+    let cfg = config(&dir, &socket);
+    let mgmot = mgmot_run(&cfg, Some(&stats)).spawn_logged(dir.join("mgmot.log"));
+    (dir, listener, stats, mgmot)
 }
 
 fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
@@ -74,37 +65,17 @@ fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
 }
 
 /// Sends frames `0..n` (their own numbering), 64x36, 30 fps stamps; a failed write fails
-/// the test with mgmot's log.
-fn send_frames(s: &mut UnixStream, n: u64, config: &Path) {
+/// the test with the log of mgmot.
+fn send_frames(s: &mut UnixStream, n: u64, mgmot: &Proc) {
     let (w, h) = (64u32, 36u32);
     let px = vec![90u8; (w * h * 3) as usize];
     for k in 0..n {
         let hdr = FrameHeader::rgb24(k, 1_000_000 + k * 33_333, w, h);
         if let Err(e) = s.write_all(&hdr.encode()).and_then(|()| s.write_all(&px)) {
-            panic!("frame {k}: {e}; mgmot: {}", log_of(config));
+            panic!("frame {k}: {e}; mgmot: {}", mgmot.log());
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-}
-
-fn wait_exit(p: &mut Proc, within: Duration) -> Option<ExitStatus> {
-    let until = Instant::now() + within;
-    while Instant::now() < until {
-        if let Some(status) = p.0.try_wait().unwrap() {
-            return Some(status);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    None
-}
-
-fn sigterm(p: &Proc) {
-    let ok = Command::new("kill")
-        .args(["-TERM", &p.0.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -TERM failed");
 }
 
 fn stats(path: &Path) -> serde_json::Value {
@@ -116,24 +87,21 @@ fn stats(path: &Path) -> serde_json::Value {
 /// (no tracker errors), and the end-of-stream header then ends the run with exit 0.
 #[test]
 fn a_cut_stream_is_reconnected_and_restarted_numbering_is_tracked() {
-    let dir = tempfile::tempdir().unwrap();
-    let socket = dir.path().join("frames.sock");
-    let listener = UnixListener::bind(&socket).unwrap();
-    let stats_path = dir.path().join("stats.json");
-    let cfg = config(dir.path(), &socket);
-    let mut mgmot = start(&cfg, &stats_path);
+    let (_dir, listener, stats_path, mut mgmot) = start();
 
     let mut s = accept(&listener, Duration::from_secs(20));
-    send_frames(&mut s, 20, &cfg);
+    send_frames(&mut s, 20, &mgmot);
     drop(s); // cut: no end-of-stream header
     assert!(
-        wait_exit(&mut mgmot, Duration::from_millis(1500)).is_none(),
+        mgmot.wait_within(Duration::from_millis(1500)).is_none(),
         "mgmot exited when the frame stream was cut"
     );
     let mut s = accept(&listener, Duration::from_secs(10));
-    send_frames(&mut s, 20, &cfg); // numbered from 0 again
+    send_frames(&mut s, 20, &mgmot); // numbered from 0 again
     s.write_all(&end_of_stream()).unwrap();
-    let status = wait_exit(&mut mgmot, Duration::from_secs(20)).expect("mgmot did not end");
+    let status = mgmot
+        .wait_within(Duration::from_secs(20))
+        .expect("mgmot did not end");
     assert!(status.success(), "{status:?}");
     let st = stats(&stats_path);
     assert_eq!(st["tracker_errors"], 0, "{st}");
@@ -145,19 +113,16 @@ fn a_cut_stream_is_reconnected_and_restarted_numbering_is_tracked() {
 /// mgmot promptly with exit 0 and its stats written.
 #[test]
 fn sigterm_ends_mgmot_while_the_source_is_frozen() {
-    let dir = tempfile::tempdir().unwrap();
-    let socket = dir.path().join("frames.sock");
-    let listener = UnixListener::bind(&socket).unwrap();
-    let stats_path = dir.path().join("stats.json");
-    let cfg = config(dir.path(), &socket);
-    let mut mgmot = start(&cfg, &stats_path);
+    let (_dir, listener, stats_path, mut mgmot) = start();
     let mut s = accept(&listener, Duration::from_secs(20));
-    send_frames(&mut s, 3, &cfg);
+    send_frames(&mut s, 3, &mgmot);
     // Frozen from here: the connection stays open, nothing more is sent.
     std::thread::sleep(Duration::from_millis(300));
     let asked = Instant::now();
-    sigterm(&mgmot);
-    let status = wait_exit(&mut mgmot, Duration::from_secs(5)).expect("SIGTERM did not end mgmot");
+    mgmot.sigterm();
+    let status = mgmot
+        .wait_within(Duration::from_secs(5))
+        .expect("SIGTERM did not end mgmot");
     assert!(status.success(), "{status:?}");
     assert!(
         asked.elapsed() < Duration::from_secs(3),
@@ -174,31 +139,30 @@ fn sigterm_ends_mgmot_while_the_source_is_frozen() {
 #[test]
 fn an_unopenable_frame_socket_is_named_at_start_up() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
-    let socket = dir.path().join("frames.sock");
+    let socket = dir.join("frames.sock");
     let _listener = UnixListener::bind(&socket).unwrap();
     std::fs::set_permissions(&socket, std::fs::Permissions::from_mode(0o600)).unwrap();
-    let cfg = config(dir.path(), &socket);
-    for f in [&cfg, &dir.path().join("dets.json")] {
+    let cfg = config(&dir, &socket);
+    for f in [&cfg, &dir.join("dets.json")] {
         std::fs::set_permissions(f, std::fs::Permissions::from_mode(0o644)).unwrap();
     }
     let root = rustix::process::geteuid().is_root();
     let mut cmd = if root {
-        let mut c = Command::new("setpriv");
+        let mut c = TestCommand::new("setpriv");
         c.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
             .arg(env!("CARGO_BIN_EXE_mgmot"));
         c
     } else {
         std::fs::set_permissions(&socket, std::fs::Permissions::from_mode(0o000)).unwrap();
-        Command::new(env!("CARGO_BIN_EXE_mgmot"))
+        mgmot()
     };
     let out = cmd
         .args(["run", "--config"])
         .arg(&cfg)
         .current_dir(dir.path())
-        .output()
-        .unwrap();
+        .output();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "mgmot ran: {err}");
     assert!(

@@ -5,33 +5,23 @@
 
 mod common;
 
-use common::Proc;
+use common::{mgmot, mgmot_run, run_config, TestDir};
 use mavlink_core::{MavlinkReader, MavlinkVersion};
 use mgmot::mavlink::dialect::{MavMessage, MavType};
 use std::net::UdpSocket;
-use std::path::Path;
-use std::process::{Command, Stdio};
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// A config sending to `port` with `heartbeat_hz`; frames from a socket nobody serves (the
 /// camera stays lost, which must not hold up the heartbeat).
-fn config(dir: &Path, port: u16, heartbeat_hz: &str) -> std::path::PathBuf {
-    let dets = dir.join("dets.json");
-    std::fs::write(&dets, "[]").unwrap();
-    let path = dir.join("mgmot.toml");
-    std::fs::write(
-        &path,
-        format!(
-            "[mavlink]\nconnection = \"udpout:127.0.0.1:{port}\"\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\n\
-             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n\
-             [outputs]\nheartbeat_hz = {heartbeat_hz}\n",
-            dir.join("nobody.sock").display(),
-            dets.display()
-        ),
-    )
-    .unwrap();
-    path
+fn config(dir: &TestDir, port: u16, heartbeat_hz: f64) -> PathBuf {
+    let mut c = run_config(
+        &format!("udpout:127.0.0.1:{port}"),
+        &dir.join("nobody.sock"),
+        &dir.empty_detections(),
+    );
+    c.outputs.heartbeat_hz = heartbeat_hz;
+    dir.write_config("mgmot.toml", &c)
 }
 
 /// Arrival times on `socket` of the heartbeats of mgmot run with `config`, over `listen`.
@@ -39,15 +29,7 @@ fn heartbeats(socket: &UdpSocket, config: &Path, listen: Duration) -> Vec<Instan
     socket
         .set_read_timeout(Some(Duration::from_millis(50)))
         .unwrap();
-    let _mgmot = Proc(
-        Command::new(env!("CARGO_BIN_EXE_mgmot"))
-            .args(["run", "--config"])
-            .arg(config)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _mgmot = mgmot_run(config, None).spawn();
     let mut at = Vec::new();
     let mut buf = [0u8; 2048];
     let start = Instant::now();
@@ -69,10 +51,10 @@ fn heartbeats(socket: &UdpSocket, config: &Path, listen: Duration) -> Vec<Instan
 }
 
 fn check_rate(hz: f64) {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     let port = socket.local_addr().unwrap().port();
-    let cfg = config(dir.path(), port, &format!("{hz:?}"));
+    let cfg = config(&dir, port, hz);
     let at = heartbeats(&socket, &cfg, Duration::from_secs_f64(1.0 + 6.0 / hz));
     assert!(at.len() >= 5, "{} heartbeats at {hz} Hz", at.len());
     // From the first to the last: the mean interval, free of start-up time.
@@ -94,19 +76,15 @@ fn heartbeat_runs_at_the_configured_rate() {
 
 #[test]
 fn check_config_refuses_heartbeat_rates_run_cannot_keep() {
-    let dir = tempfile::tempdir().unwrap();
-    for bad in ["1e-300", "1e300", "2e9", "nan", "0", "-1"] {
-        let cfg = config(dir.path(), 14550, bad);
-        let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
-            .args(["check-config"])
-            .arg(&cfg)
-            .output()
-            .unwrap();
+    let dir = TestDir::new();
+    for bad in [1e-300, 1e300, 2e9, f64::NAN, 0.0, -1.0] {
+        let cfg = config(&dir, 14550, bad);
+        let out = mgmot().arg("check-config").arg(&cfg).output();
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "heartbeat_hz = {bad} accepted");
+        assert!(!out.status.success(), "heartbeat_hz = {bad:?} accepted");
         assert!(
             stderr.contains("outputs.heartbeat_hz"),
-            "heartbeat_hz = {bad}: the error does not name the key: {stderr}"
+            "heartbeat_hz = {bad:?}: the error does not name the key: {stderr}"
         );
     }
 }

@@ -11,73 +11,45 @@
 
 mod common;
 
-use common::{sim_bin, sim_to};
+use common::{mgmot_run, run_config, sim, Scenario, TestDir};
 use mavlink_core::{MavlinkReader, MavlinkVersion};
+use mgmot::config::FramesConfig;
 use mgmot::mavlink::dialect::MavMessage;
 use std::net::UdpSocket;
-use std::path::Path;
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn sim(args: &[&str], out: &Path) {
-    sim_to(&sim_bin(), args, out);
-}
 
 #[test]
 fn plays_a_directory_tracks_and_stops_at_its_end() {
     // swimmer_group: its swimmers are in view from the first frame (calm_baseline's come later).
-    let (scenario, duration_s, fps) = ("swimmer_group", "2", 30.0);
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path();
-    sim(
-        &[
-            "render",
-            "--scenario",
-            scenario,
-            "--duration-s",
-            duration_s,
-            "--format",
-            "jpg",
-        ],
-        &dir.join("seq"),
-    );
-    sim(
-        &[
-            "detections",
-            "--scenario",
-            scenario,
-            "--duration-s",
-            duration_s,
-        ],
-        &dir.join("dets.json"),
-    );
+    let (scenario, fps) = (Scenario::new("swimmer_group", 2.0), 30.0);
+    let dir = TestDir::new();
+    sim()
+        .arg("render")
+        .args(scenario.args())
+        .args(["--format", "jpg", "-o"])
+        .arg(dir.join("seq"))
+        .ok();
+    scenario.detections(&dir.join("dets.json"));
     let images = std::fs::read_dir(dir.join("seq/img1")).unwrap().count() as u64;
     assert!(images >= 50, "{images} rendered images");
 
     let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
     gcs.set_read_timeout(Some(Duration::from_millis(50)))
         .unwrap();
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "[mavlink]\nconnection = \"udpout:127.0.0.1:{}\"\nstream_rate_hz = 0\n\
-             [frames]\nsource = \"images\"\ndirectory = \"{}\"\nfps = {fps}\n\
-             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
-            gcs.local_addr().unwrap().port(),
-            dir.join("seq/img1").display(),
-            dir.join("dets.json").display()
-        ),
-    )
-    .unwrap();
+    let mut c = run_config(
+        &format!("udpout:127.0.0.1:{}", gcs.local_addr().unwrap().port()),
+        &dir.join("unused.sock"),
+        &dir.join("dets.json"),
+    );
+    c.mavlink.stream_rate_hz = 0.0;
+    c.frames = FramesConfig::Images {
+        directory: dir.join("seq/img1"),
+        fps,
+        looping: false,
+    };
+    let config = dir.write_config("run.toml", &c);
     let started = Instant::now();
-    let mut mgmot = Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .args(["run", "--config"])
-        .arg(&config)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut mgmot = mgmot_run(&config, None).spawn_logged(dir.join("mgmot.log"));
     let mut messages = Vec::new();
     let mut buf = [0u8; 65536];
     let status = loop {
@@ -87,11 +59,10 @@ fn plays_a_directory_tracks_and_stops_at_its_end() {
                 messages.push(m);
             }
         }
-        if let Some(status) = mgmot.try_wait().unwrap() {
+        if let Some(status) = mgmot.exited() {
             break status;
         }
         if started.elapsed() > Duration::from_secs(120) {
-            let _ = mgmot.kill();
             panic!("mgmot run did not stop at the end of the directory");
         }
     };
@@ -103,12 +74,7 @@ fn plays_a_directory_tracks_and_stops_at_its_end() {
             messages.push(m);
         }
     }
-    let stderr = {
-        use std::io::Read;
-        let mut e = String::new();
-        mgmot.stderr.take().unwrap().read_to_string(&mut e).unwrap();
-        e
-    };
+    let stderr = mgmot.log();
     assert!(status.success(), "mgmot run failed: {stderr}");
 
     // Every image was shown, at the nominal rate (not faster).
@@ -159,25 +125,19 @@ fn plays_a_directory_tracks_and_stops_at_its_end() {
 
 #[test]
 fn a_missing_directory_fails_at_start_naming_it() {
-    let tmp = tempfile::tempdir().unwrap();
-    let config = tmp.path().join("run.toml");
-    let dets = tmp.path().join("dets.json");
-    std::fs::write(&dets, "[]").unwrap();
-    std::fs::write(
-        &config,
-        format!(
-            "[mavlink]\nconnection = \"udpout:127.0.0.1:9\"\n\
-             [frames]\nsource = \"images\"\ndirectory = \"/nonexistent/mgmot-frames\"\n\
-             fps = 30.0\n[detector]\nkind = \"replay\"\ndetections = \"{}\"\n",
-            dets.display()
-        ),
-    )
-    .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .args(["run", "--config"])
-        .arg(&config)
-        .output()
-        .unwrap();
+    let dir = TestDir::new();
+    let mut c = run_config(
+        "udpout:127.0.0.1:9",
+        &dir.join("unused.sock"),
+        &dir.empty_detections(),
+    );
+    c.frames = FramesConfig::Images {
+        directory: "/nonexistent/mgmot-frames".into(),
+        fps: 30.0,
+        looping: false,
+    };
+    let config = dir.write_config("run.toml", &c);
+    let o = mgmot_run(&config, None).output();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(

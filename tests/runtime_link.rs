@@ -5,28 +5,31 @@
 //! STATUSTEXT of a telemetry dropout.
 //!
 //! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
-//! `cargo build -p mgmot-sim`. Frames are made small (640x360) to keep the debug-build
-//! simulator quick; the detections are simulated at the same size.
+//! `cargo build -p mgmot-sim` (tests/common). Frames are made small (640x360) to keep the
+//! debug-build simulator quick; the detections are simulated at the same size.
 
 mod common;
 
-use common::{free_udp_port, sim_bin, sim_to, Proc, Relay, Sent, BOOT_TIME_S};
+use common::{
+    distance_m, free_udp_port, mgmot_run, read_truth, run_config, track_time_ms, Proc, Relay,
+    Scenario, Sent, TestDir,
+};
 use mavlink_core::{
     MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion, MessageData, SigningConfig,
     SigningData,
 };
+use mgmot::config::Config;
 use mgmot::mavlink::dialect::*;
 use sha2::{Digest, Sha256};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::path::PathBuf;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 /// The GCS's system and component ids.
 const GCS: (u8, u8) = (255, 190);
 /// mgmot's system and component ids (the defaults).
 const MGMOT: (u8, u8) = (1, 191);
 /// Frame size for the simulator (and its detections).
-const SIZE: [&str; 4] = ["--width", "640", "--height", "360"];
+const SIZE: (u32, u32) = (640, 360);
 const KEY: [u8; 32] = [
     0x4d, 0x47, 0x4d, 0x4f, 0x54, 0x2d, 0x6b, 0x65, 0x79, 0x2d, 0x66, 0x6f, 0x72, 0x2d, 0x74, 0x65,
     0x73, 0x74, 0x73, 0x2d, 0x6f, 0x6e, 0x6c, 0x79, 0x2d, 0x30, 0x31, 0x32, 0x33, 0x34, 0x35, 0x36,
@@ -47,39 +50,6 @@ impl Link {
             gcs_signing: SigningData::from_config(SigningConfig::new(KEY, 0, true, false)),
             wrong_signing: SigningData::from_config(SigningConfig::new([9; 32], 0, true, false)),
         }
-    }
-
-    /// How many messages mgmot has sent so far (a position to wait from).
-    fn mark(&self) -> usize {
-        self.relay.sent.lock().unwrap().len()
-    }
-
-    fn since(&self, from: usize) -> Vec<Sent> {
-        self.relay.sent.lock().unwrap()[from..].to_vec()
-    }
-
-    /// The first message from position `from` on that `pred` accepts, waiting up to `limit`.
-    fn wait_for(
-        &self,
-        from: usize,
-        limit: Duration,
-        mut pred: impl FnMut(&MavMessage) -> bool,
-    ) -> Option<(usize, Sent)> {
-        let start = Instant::now();
-        let mut next = from;
-        while start.elapsed() < limit {
-            {
-                let sent = self.relay.sent.lock().unwrap();
-                for (i, s) in sent.iter().enumerate().skip(next) {
-                    if pred(&s.msg) {
-                        return Some((i, s.clone()));
-                    }
-                }
-                next = sent.len();
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        None
     }
 
     /// Sends a message as the GCS; `Some(true)`: signed with the shared key, `Some(false)`:
@@ -115,135 +85,56 @@ impl Link {
     }
 }
 
+/// The relay's `mark`, `since` and `wait_for`.
+impl std::ops::Deref for Link {
+    type Target = Relay;
+    fn deref(&self) -> &Relay {
+        &self.relay
+    }
+}
+
 struct Setup {
-    _tmp: tempfile::TempDir,
-    dir: PathBuf,
-    sim: PathBuf,
-    scenario: String,
+    dir: TestDir,
+    scenario: Scenario,
     config: PathBuf,
     mgmot_port: u16,
 }
 
-/// Simulated detections and a configuration with `extra` TOML appended to `[mavlink]`
-/// (`mavlink_extra`) and after it (`extra`, whole tables).
-fn setup(scenario: &str, duration_s: f64, mavlink_extra: &str, extra: &str) -> Setup {
-    let sim = sim_bin();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().to_owned();
-    let duration = duration_s.to_string();
-    let args = [
-        "detections",
-        "--scenario",
-        scenario,
-        "--duration-s",
-        &duration,
-    ];
-    sim_to(
-        &sim,
-        &[&args[..], &SIZE[..]].concat(),
+/// Simulated detections of `scenario` in `dir`, and the configuration `mgmot run` reads them
+/// with, as `edit` leaves it.
+fn setup(dir: TestDir, scenario: &str, duration_s: f64, edit: impl FnOnce(&mut Config)) -> Setup {
+    let scenario = Scenario::new(scenario, duration_s).size(SIZE.0, SIZE.1);
+    scenario.detections(&dir.join("dets.json"));
+    let mgmot_port = free_udp_port();
+    let mut config = run_config(
+        &format!("udpin:127.0.0.1:{mgmot_port}"),
+        &dir.join("frames.sock"),
         &dir.join("dets.json"),
     );
-    let mgmot_port = free_udp_port();
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "[mavlink]\nconnection = \"udpin:127.0.0.1:{mgmot_port}\"\n{mavlink_extra}\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\n\
-             [detector]\nkind = \"replay\"\ndetections = \"{}\"\n{extra}\n",
-            dir.join("frames.sock").display(),
-            dir.join("dets.json").display()
-        ),
-    )
-    .unwrap();
+    edit(&mut config);
+    let config = dir.write_config("run.toml", &config);
     Setup {
-        _tmp: tmp,
         dir,
-        sim,
-        scenario: scenario.to_owned(),
+        scenario,
         config,
         mgmot_port,
     }
 }
 
-fn start_sim(s: &Setup, duration_s: f64, lockstep: bool, link: &Link) -> Proc {
-    Proc(
-        Command::new(&s.sim)
-            .args(["run", "--scenario", &s.scenario, "--duration-s"])
-            .arg(duration_s.to_string())
-            .args(SIZE)
-            .arg(if lockstep { "--lockstep" } else { "--realtime" })
-            .arg("--mavlink")
-            .arg(format!("udpout:127.0.0.1:{}", link.relay.listen_port))
-            .arg("--frames")
-            .arg(format!("unix:{}", s.dir.join("frames.sock").display()))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    )
+/// The simulator in real time: the operator's steps take wall-clock time, and in lockstep an
+/// optimised build can play the whole scenario before the last of them.
+fn start_sim(s: &Setup, link: &Link) -> Proc {
+    s.scenario
+        .run(true, link.listen_port, &s.dir.join("frames.sock"))
+        .spawn()
 }
 
 fn start_mgmot(s: &Setup) -> Proc {
-    let log = std::fs::File::create(s.dir.join("mgmot.log")).unwrap();
-    Proc(
-        Command::new(env!("CARGO_BIN_EXE_mgmot"))
-            .args(["run", "--config"])
-            .arg(&s.config)
-            .arg("--stats-json")
-            .arg(s.dir.join("stats.json"))
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap(),
-    )
+    mgmot_run(&s.config, Some(&s.dir.join("stats.json"))).spawn_logged(s.dir.join("mgmot.log"))
 }
 
-fn mgmot_log(s: &Setup) -> String {
-    std::fs::read_to_string(s.dir.join("mgmot.log")).unwrap_or_default()
-}
-
-/// SIGTERM, then waits for a clean exit.
-fn stop(p: &mut Proc) -> std::process::ExitStatus {
-    let kill = Command::new("kill")
-        .args(["-TERM", &p.0.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let start = Instant::now();
-    loop {
-        if let Some(status) = p.0.try_wait().unwrap() {
-            return status;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "mgmot did not stop"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
-/// True swimmer positions (sim time in ms, lat, lon) from the detections' ground truth.
-fn swimmer_truth(dir: &Path) -> Vec<(i64, f64, f64)> {
-    let mut r = csv::Reader::from_path(dir.join("dets_gt/world.csv")).unwrap();
-    r.deserialize::<std::collections::HashMap<String, String>>()
-        .map(|row| row.unwrap())
-        .filter(|row| row["class"] == "swimmer")
-        .map(|row| {
-            (
-                (row["time_s"].parse::<f64>().unwrap() * 1000.0).round() as i64,
-                row["lat_deg"].parse().unwrap(),
-                row["lon_deg"].parse().unwrap(),
-            )
-        })
-        .collect()
-}
-
-fn distance_m((lat1, lon1): (f64, f64), (lat2, lon2): (f64, f64)) -> f64 {
-    let dn = (lat1 - lat2) * 111_320.0;
-    let de = (lon1 - lon2) * 111_320.0 * lat1.to_radians().cos();
-    dn.hypot(de)
-}
+/// How long mgmot may take to stop after SIGTERM.
+const STOP_LIMIT: Duration = Duration::from_secs(20);
 
 fn track_point(x: f32, y: f32) -> MavMessage {
     MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
@@ -337,20 +228,20 @@ fn empty_sea(sent: &[Sent], before: usize) -> (f32, f32) {
 
 #[test]
 fn operator_selects_a_swimmer_and_follows_it_until_stopped() {
-    let duration_s = 60.0;
-    let s = setup("calm_baseline", duration_s, "", "");
+    let s = setup(TestDir::new(), "calm_baseline", 60.0, |_| {});
     let link = Link::start(s.mgmot_port);
-    // In real time: the operator's steps take wall-clock time, and in lockstep an optimised
-    // build can play the whole scenario before the last of them.
-    let _sim = start_sim(&s, duration_s, false, &link);
+    let _sim = start_sim(&s, &link);
     let mut mgmot = start_mgmot(&s);
-    let truth = swimmer_truth(&s.dir);
+    let truth: Vec<_> = read_truth(&s.dir.join("dets_gt/world.csv"))
+        .into_iter()
+        .filter(|g| g.class == "swimmer")
+        .collect();
     let limit = Duration::from_secs(120);
 
     // A swimmer on the operator's screen: click the centre of its box.
     let (_, seen) = link
         .wait_for(0, limit, geolocated_swimmer)
-        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot_log(&s)));
+        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot.log()));
     let clicked = track_of(&seen);
 
     // A GCS asks what this "camera" is: the answer has the tracking capabilities and, frames
@@ -420,11 +311,11 @@ fn operator_selects_a_swimmer_and_follows_it_until_stopped() {
                     continue;
                 }
                 let p = (f64::from(g.lat) * 1e-7, f64::from(g.lon) * 1e-7);
-                let t_ms = ((track.time_usec as f64 / 1e6 - BOOT_TIME_S) * 1000.0).round() as i64;
+                let t_ms = track_time_ms(track.time_usec);
                 let to_truth = truth
                     .iter()
-                    .filter(|(ms, _, _)| (ms - t_ms).abs() <= 500)
-                    .map(|&(_, lat, lon)| distance_m(p, (lat, lon)))
+                    .filter(|g| (g.t_ms - t_ms).abs() <= 500)
+                    .map(|g| distance_m(p, (g.lat, g.lon)))
                     .fold(f64::INFINITY, f64::min);
                 assert!(
                     to_truth < 3.0,
@@ -551,9 +442,9 @@ fn operator_selects_a_swimmer_and_follows_it_until_stopped() {
     })
     .expect("no rectangle status after TRACK_RECTANGLE");
 
-    let status = stop(&mut mgmot);
+    let status = mgmot.stop(STOP_LIMIT);
     let _ = link.finish();
-    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+    assert!(status.success(), "mgmot: {}", mgmot.log());
 }
 
 /// The 6-byte signature of a signed MAVLink 2 frame, recomputed from the key (SHA-256 of the
@@ -571,28 +462,25 @@ fn expected_signature(key: &[u8; 32], frame: &[u8]) -> [u8; 6] {
 
 #[test]
 fn signing_signs_everything_and_refuses_unsigned_commands_only() {
-    let duration_s = 60.0;
-    let key_hex: String = KEY.iter().map(|b| format!("{b:02x}")).collect();
-    let state_dir = tempfile::tempdir().unwrap();
-    let state_file = state_dir.path().join("signing-state.json");
-    let s = setup(
-        "calm_baseline",
-        duration_s,
-        &format!(
-            "[mavlink.signing]\nkey_hex = \"{key_hex}\"\nlink_id = 5\nstate_file = \"{}\"\n",
-            state_file.display()
-        ),
-        "",
-    );
+    let dir = TestDir::new();
+    let state_file = dir.join("signing-state.json");
+    let s = setup(dir, "calm_baseline", 60.0, |c| {
+        c.mavlink.signing = Some(mgmot::config::SigningConfig {
+            key_hex: KEY.iter().map(|b| format!("{b:02x}")).collect(),
+            link_id: 5,
+            state_file,
+            // The simulator's telemetry is unsigned (the default, said here as it is relied on).
+            accept_unsigned_telemetry: true,
+        });
+    });
     let link = Link::start(s.mgmot_port);
-    // In real time, as the other tests here: the steps take wall-clock time.
-    let _sim = start_sim(&s, duration_s, false, &link);
+    let _sim = start_sim(&s, &link);
     let mut mgmot = start_mgmot(&s);
 
     // The simulator's telemetry is unsigned, and still geolocates tracks.
     let (_, seen) = link
         .wait_for(0, Duration::from_secs(120), geolocated_swimmer)
-        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot_log(&s)));
+        .unwrap_or_else(|| panic!("no geolocated swimmer; mgmot: {}", mgmot.log()));
     let t = track_of(&seen);
     let (x, y) = (t.bbox_x + t.bbox_w / 2.0, t.bbox_y + t.bbox_h / 2.0);
 
@@ -649,9 +537,9 @@ fn signing_signs_everything_and_refuses_unsigned_commands_only() {
     )
     .expect("no tracking status after the signed command");
 
-    let status = stop(&mut mgmot);
+    let status = mgmot.stop(STOP_LIMIT);
     let sent = link.finish();
-    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+    assert!(status.success(), "mgmot: {}", mgmot.log());
 
     // Every frame mgmot sent is signed with the key and link id 5; timestamps (10 us units
     // since 2015-01-01) increase and are near now.
@@ -699,34 +587,22 @@ fn telemetry_dropout_is_announced_once_and_tracking_goes_on() {
     ))
     .unwrap();
     assert!(shipped.contains("dropouts = [[20.0, 5.0]]"));
-    let tmp = tempfile::tempdir().unwrap();
-    let scenario = tmp.path().join("dropout_early.toml");
-    std::fs::write(
-        &scenario,
+    let dir = TestDir::new();
+    let scenario = dir.write(
+        "dropout_early.toml",
         shipped.replace("dropouts = [[20.0, 5.0]]", "dropouts = [[6.0, 5.0]]"),
-    )
-    .unwrap();
-    let duration_s = 16.0;
-    let s = setup(
-        scenario.to_str().unwrap(),
-        duration_s,
-        "",
-        "[telemetry]\nlost_after_ms = 1500.0\n",
     );
+    let s = setup(dir, scenario.to_str().unwrap(), 16.0, |c| {
+        c.telemetry.lost_after_ms = 1500.0;
+    });
     let link = Link::start(s.mgmot_port);
-    let mut sim = start_sim(&s, duration_s, false, &link);
+    let mut sim = start_sim(&s, &link);
     let mut mgmot = start_mgmot(&s);
-    let start = Instant::now();
-    while sim.0.try_wait().unwrap().is_none() {
-        assert!(
-            start.elapsed() < Duration::from_secs(90),
-            "the simulator did not finish"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let status = stop(&mut mgmot);
+    sim.wait_within(Duration::from_secs(90))
+        .expect("the simulator did not finish");
+    let status = mgmot.stop(STOP_LIMIT);
     let sent = link.finish();
-    assert!(status.success(), "mgmot: {}", mgmot_log(&s));
+    assert!(status.success(), "mgmot: {}", mgmot.log());
 
     let texts: Vec<(usize, String)> = sent
         .iter()
@@ -745,7 +621,7 @@ fn telemetry_dropout_is_announced_once_and_tracking_goes_on() {
             "mgmot: telemetry ok"
         ],
         "mgmot: {}",
-        mgmot_log(&s)
+        mgmot.log()
     );
     let (lost_at, back_at) = (texts[0].0, texts[1].0);
     let geo_valid = |range: std::ops::Range<usize>| -> (usize, usize) {

@@ -5,7 +5,7 @@
 //! detection mode, keyed by frame, so the tracker sees the simulator's detector model).
 //!
 //! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here with
-//! `cargo build -p mgmot-sim` (a workspace member). The runs with the real detector are in
+//! `cargo build -p mgmot-sim` (a workspace member; tests/common). The runs with the real detector are in
 //! real time, as flown; the others in lockstep (as fast as mgmot reads frames;
 //! `frames.wait_for_detector` makes mgmot read the next one only once the detector took the
 //! last, so every frame is processed on a fast or a slow build alike), on shortened scenarios,
@@ -14,27 +14,19 @@
 
 mod common;
 
-use common::{free_udp_port, sim_bin, sim_to, Relay, BOOT_TIME_S};
-use mavlink_core::MavHeader;
+use common::{
+    distance_m, free_udp_port, mgmot_run, read_truth, run_config, track_time_ms, Relay, Scenario,
+    Sent, TestDir, Truth,
+};
+use mgmot::config::{DetectorConfig, FramesConfig, OnnxDetectorConfig};
+use mgmot::detect::BackendKind;
 use mgmot::mavlink::dialect::{
     MavMessage, MavType, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
 };
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
-
-/// Metres per degree of latitude (spherical approximation; the distances here are tens of
-/// metres, where it is good to millimetres).
-const M_PER_DEG: f64 = 111_320.0;
-
-/// Stops the relay: what mgmot sent, message by message.
-fn finish(tap: Relay) -> Vec<(MavHeader, MavMessage)> {
-    tap.finish()
-        .into_iter()
-        .map(|s| (s.header, s.msg))
-        .collect()
-}
+use std::process::ExitStatus;
+use std::time::Duration;
 
 /// Which detector mgmot runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,60 +40,27 @@ enum Det {
 
 /// One loopback run.
 struct Spec {
-    /// A shipped scenario name, or the path of a scenario file.
-    scenario: String,
-    duration_s: f64,
-    /// Frame size override (the replay detector does not look at the pixels; smaller frames
-    /// render and travel faster).
-    size_px: Option<(u32, u32)>,
+    /// The scenario; a frame size is set where the replay detector does not look at the
+    /// pixels (smaller frames render and travel faster).
+    scenario: Scenario,
     detector: Det,
     /// In real time, as flown (the identity tests), instead of lockstep with
     /// `frames.wait_for_detector` (every frame processed, as fast as the machine goes).
     realtime: bool,
 }
 
-impl Spec {
-    fn sim_args(&self) -> Vec<String> {
-        let mut a = vec![
-            "--scenario".to_string(),
-            self.scenario.clone(),
-            "--duration-s".into(),
-            self.duration_s.to_string(),
-        ];
-        if let Some((w, h)) = self.size_px {
-            a.extend([
-                "--width".into(),
-                w.to_string(),
-                "--height".into(),
-                h.to_string(),
-            ]);
-        }
-        a
-    }
-}
-
-/// One ground-truth object in one streamed frame.
-#[derive(Debug, Clone)]
-struct Truth {
-    t_ms: i64,
-    id: u64,
-    class: String,
-    lat: f64,
-    lon: f64,
-}
-
 struct Outcome {
-    _dir: tempfile::TempDir,
+    _dir: TestDir,
     status: ExitStatus,
     stderr: String,
-    messages: Vec<(MavHeader, MavMessage)>,
+    messages: Vec<Sent>,
     truth: Vec<Truth>,
     stats: serde_json::Value,
 }
 
 impl Outcome {
     fn tracks(&self) -> impl Iterator<Item = &MGMOT_TRACK_DATA> {
-        self.messages.iter().filter_map(|(_, m)| match m {
+        self.messages.iter().filter_map(|s| match &s.msg {
             MavMessage::MGMOT_TRACK(t) => Some(t),
             _ => None,
         })
@@ -112,38 +71,34 @@ impl Outcome {
     }
 }
 
-fn write_config(dir: &Path, mgmot_port: u16, detector: Det, realtime: bool) -> PathBuf {
-    let detector = match detector {
-        Det::Replay => format!(
-            "kind = \"replay\"\ndetections = \"{}\"\n",
-            dir.join("dets.json").display()
-        ),
+fn write_config(dir: &TestDir, mgmot_port: u16, detector: Det, realtime: bool) -> PathBuf {
+    let mut c = run_config(
+        &format!("udpin:127.0.0.1:{mgmot_port}"),
+        &dir.join("frames.sock"),
+        &dir.join("dets.json"),
+    );
+    let FramesConfig::Sim {
+        wait_for_detector, ..
+    } = &mut c.frames
+    else {
+        unreachable!()
+    };
+    *wait_for_detector = !realtime;
+    if detector == Det::Onnx {
         // The fp32 model: tract and ONNX Runtime give the same detections with it (parity test
         // in tests/detect_cli.rs), ONNX Runtime about 3.5x faster, where ORT_DYLIB_PATH names it
         // (scripts/test.sh fetches it).
-        Det::Onnx => format!(
-            "kind = \"onnx\"\nmodel = \"{}/models/mgmot-det-fp32.onnx\"\nbackend = \"{}\"\n",
-            env!("CARGO_MANIFEST_DIR"),
-            if onnxruntime_available() {
-                "onnxruntime"
-            } else {
-                "tract"
-            }
-        ),
-    };
-    let config = dir.join("run.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "[mavlink]\nconnection = \"udpin:127.0.0.1:{mgmot_port}\"\n\
-             [frames]\nsource = \"sim\"\nsocket = \"{}\"\nwait_for_detector = {}\n\
-             [detector]\n{detector}",
-            dir.join("frames.sock").display(),
-            !realtime,
-        ),
-    )
-    .unwrap();
-    config
+        let mut onnx: OnnxDetectorConfig =
+            toml::from_str("model = \"\"").expect("the ONNX detector's defaults");
+        onnx.model = common::repo_file("models/mgmot-det-fp32.onnx");
+        onnx.backend = if onnxruntime_available() {
+            BackendKind::OnnxRuntime
+        } else {
+            BackendKind::Tract
+        };
+        c.detector = DetectorConfig::Onnx(onnx);
+    }
+    dir.write_config("run.toml", &c)
 }
 
 /// Whether `ORT_DYLIB_PATH` names an ONNX Runtime library (mgmot then uses it).
@@ -151,106 +106,35 @@ fn onnxruntime_available() -> bool {
     std::env::var_os("ORT_DYLIB_PATH").is_some_and(|p| Path::new(&p).is_file())
 }
 
-fn start_sim(sim: &Path, spec: &Spec, dir: &Path, tap_port: u16, truth: bool) -> Child {
-    let mut c = Command::new(sim);
-    c.arg("run")
-        .args(spec.sim_args())
-        .arg(if spec.realtime {
-            "--realtime"
-        } else {
-            "--lockstep"
-        })
-        .arg("--mavlink")
-        .arg(format!("udpout:127.0.0.1:{tap_port}"))
-        .arg("--frames")
-        .arg(format!("unix:{}", dir.join("frames.sock").display()));
-    if truth {
-        c.arg("--truth-out").arg(dir.join("truth"));
-    }
-    c.stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap()
-}
-
-fn start_mgmot(config: &Path, stats: &Path) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .args(["run", "--config"])
-        .arg(config)
-        .arg("--stats-json")
-        .arg(stats)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
-}
-
-fn wait_with_timeout(child: &mut Child, limit: Duration) -> ExitStatus {
-    let start = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            return status;
-        }
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            panic!("process did not finish within {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
-/// Ground truth of the frames the simulator streamed (`--truth-out`).
-fn read_truth(dir: &Path) -> Vec<Truth> {
-    let mut r = csv::Reader::from_path(dir.join("truth/world.csv")).unwrap();
-    r.deserialize::<HashMap<String, String>>()
-        .map(|row| {
-            let row = row.unwrap();
-            Truth {
-                t_ms: (row["time_s"].parse::<f64>().unwrap() * 1000.0).round() as i64,
-                id: row["id"].parse().unwrap(),
-                class: row["class"].clone(),
-                lat: row["lat_deg"].parse().unwrap(),
-                lon: row["lon_deg"].parse().unwrap(),
-            }
-        })
-        .collect()
-}
-
-/// Runs the simulator (lockstep) and `mgmot run` to the end of the scenario.
+/// Runs the simulator and `mgmot run` to the end of the scenario.
 fn run_loopback(spec: &Spec) -> Outcome {
-    let sim = sim_bin();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().to_owned();
+    let dir = TestDir::new();
     if spec.detector == Det::Replay {
-        let args = [vec!["detections".to_string()], spec.sim_args()].concat();
-        sim_to(&sim, &args, &dir.join("dets.json"));
+        spec.scenario.detections(&dir.join("dets.json"));
     }
     let mgmot_port = free_udp_port();
     let config = write_config(&dir, mgmot_port, spec.detector, spec.realtime);
     let tap = Relay::start(mgmot_port);
-    let mut sim_child = start_sim(&sim, spec, &dir, tap.listen_port, true);
+    let mut sim = spec
+        .scenario
+        .run(spec.realtime, tap.listen_port, &dir.join("frames.sock"))
+        .arg("--truth-out")
+        .arg(dir.join("truth"))
+        .spawn();
     let stats_path = dir.join("stats.json");
-    let mut mgmot = start_mgmot(&config, &stats_path);
-    // Read stderr while it runs: a full pipe would block mgmot's logging.
-    let mut err_pipe = mgmot.stderr.take().unwrap();
-    let stderr_reader = std::thread::spawn(move || {
-        let mut e = String::new();
-        use std::io::Read;
-        let _ = err_pipe.read_to_string(&mut e);
-        e
-    });
-    let status = wait_with_timeout(&mut mgmot, Duration::from_secs(600));
-    let _ = wait_with_timeout(&mut sim_child, Duration::from_secs(30));
+    let mut mgmot = mgmot_run(&config, Some(&stats_path)).spawn_logged(dir.join("mgmot.log"));
+    let status = mgmot.wait_or_fail(Duration::from_secs(600));
+    let _ = sim.wait_or_fail(Duration::from_secs(30));
     std::thread::sleep(Duration::from_millis(300));
-    let messages = finish(tap);
-    let stderr = stderr_reader.join().unwrap();
+    let messages = tap.finish();
+    let stderr = mgmot.log();
     let stats = std::fs::read_to_string(&stats_path)
         .ok()
         .and_then(|s| serde_json::from_str(&s).ok())
         .unwrap_or(serde_json::Value::Null);
-    let truth = read_truth(&dir);
+    let truth = read_truth(&dir.join("truth/world.csv"));
     Outcome {
-        _dir: tmp,
+        _dir: dir,
         status,
         stderr,
         messages,
@@ -260,25 +144,19 @@ fn run_loopback(spec: &Spec) -> Outcome {
 }
 
 /// Sim time (ms) of the frame a track message describes.
-fn track_time_ms(t: &MGMOT_TRACK_DATA) -> i64 {
-    ((t.time_usec as f64 / 1e6 - BOOT_TIME_S) * 1000.0).round() as i64
-}
-
-fn distance_m(lat_a: f64, lon_a: f64, lat_b: f64, lon_b: f64) -> f64 {
-    let dn = (lat_a - lat_b) * M_PER_DEG;
-    let de = (lon_a - lon_b) * M_PER_DEG * lat_b.to_radians().cos();
-    dn.hypot(de)
+fn time_ms(t: &MGMOT_TRACK_DATA) -> i64 {
+    track_time_ms(t.time_usec)
 }
 
 /// The truth objects of the frame a geolocated track message describes, nearest first, with
 /// their distance from the message's position.
 fn nearest_truth<'a>(t: &MGMOT_TRACK_DATA, truth: &'a [Truth]) -> Vec<(f64, &'a Truth)> {
-    let t_ms = track_time_ms(t);
+    let t_ms = time_ms(t);
     let (lat, lon) = (f64::from(t.lat) * 1e-7, f64::from(t.lon) * 1e-7);
     let mut near: Vec<(f64, &Truth)> = truth
         .iter()
         .filter(|g| (g.t_ms - t_ms).abs() <= 5)
-        .map(|g| (distance_m(lat, lon, g.lat, g.lon), g))
+        .map(|g| (distance_m((lat, lon), (g.lat, g.lon)), g))
         .collect();
     near.sort_by(|a, b| a.0.total_cmp(&b.0));
     near
@@ -413,9 +291,7 @@ fn calm_baseline_tracks_and_geolocation_error() {
     // (The heartbeat is checked in the ONNX run below: with the replay detector an optimised
     // build plays these 12 s in less than the heartbeat's 1 s period.)
     let o = run_loopback(&Spec {
-        scenario: "calm_baseline".into(),
-        duration_s: 12.0,
-        size_px: Some((640, 360)),
+        scenario: Scenario::new("calm_baseline", 12.0).size(640, 360),
         detector: Det::Replay,
         realtime: false,
     });
@@ -463,16 +339,14 @@ fn calm_baseline_tracks_and_geolocation_error() {
 #[test]
 fn onnx_detector_on_rendered_frames_calm_baseline() {
     let o = run_loopback(&Spec {
-        scenario: "calm_baseline".into(),
-        duration_s: 10.0,
-        size_px: None,
+        scenario: Scenario::new("calm_baseline", 10.0),
         detector: Det::Onnx,
         realtime: true,
     });
     o.assert_success();
-    let heartbeat = o.messages.iter().any(|(h, m)| {
-        h.component_id == 191
-            && matches!(m, MavMessage::HEARTBEAT(hb) if hb.mavtype == MavType::MAV_TYPE_ONBOARD_CONTROLLER)
+    let heartbeat = o.messages.iter().any(|s| {
+        s.header.component_id == 191
+            && matches!(&s.msg, MavMessage::HEARTBEAT(hb) if hb.mavtype == MavType::MAV_TYPE_ONBOARD_CONTROLLER)
     });
     assert!(
         heartbeat,
@@ -502,9 +376,7 @@ fn onnx_detector_on_rendered_frames_calm_baseline() {
 #[test]
 fn ids_survive_gimbal_swings() {
     let o = run_loopback(&Spec {
-        scenario: "gimbal_swings".into(),
-        duration_s: 20.0,
-        size_px: None,
+        scenario: Scenario::new("gimbal_swings", 20.0),
         detector: Det::Onnx,
         realtime: true,
     });
@@ -521,9 +393,7 @@ fn ids_survive_gimbal_swings() {
 #[test]
 fn ids_survive_leave_and_return() {
     let o = run_loopback(&Spec {
-        scenario: "leave_and_return".into(),
-        duration_s: 32.0,
-        size_px: None,
+        scenario: Scenario::new("leave_and_return", 32.0),
         detector: Det::Onnx,
         realtime: true,
     });
@@ -536,37 +406,26 @@ fn ids_survive_leave_and_return() {
 
 #[test]
 fn sigterm_stops_cleanly() {
-    let spec = Spec {
-        scenario: "calm_baseline".into(),
-        duration_s: 60.0,
-        size_px: Some((320, 180)),
-        detector: Det::Replay,
-        realtime: false,
-    };
-    let sim = sim_bin();
-    let dir = tempfile::tempdir().unwrap();
+    let scenario = Scenario::new("calm_baseline", 60.0).size(320, 180);
+    let dir = TestDir::new();
     // No detections: this test is about stopping.
-    std::fs::write(dir.path().join("dets.json"), "[]").unwrap();
+    dir.empty_detections();
     let mgmot_port = free_udp_port();
-    let config = write_config(dir.path(), mgmot_port, Det::Replay, spec.realtime);
+    let config = write_config(&dir, mgmot_port, Det::Replay, false);
     let tap = Relay::start(mgmot_port);
-    let mut sim_child = start_sim(&sim, &spec, dir.path(), tap.listen_port, false);
-    let stats = dir.path().join("stats.json");
-    let mut mgmot = start_mgmot(&config, &stats);
+    let sim = scenario
+        .run(false, tap.listen_port, &dir.join("frames.sock"))
+        .spawn();
+    let stats = dir.join("stats.json");
+    let mut mgmot = mgmot_run(&config, Some(&stats)).spawn_logged(dir.join("mgmot.log"));
     std::thread::sleep(Duration::from_secs(3));
-    let kill = Command::new("kill")
-        .args(["-TERM", &mgmot.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let status = wait_with_timeout(&mut mgmot, Duration::from_secs(20));
-    let _ = sim_child.kill();
-    let _ = sim_child.wait();
-    let messages = finish(tap);
+    let status = mgmot.stop(Duration::from_secs(20));
+    drop(sim);
+    let messages = tap.finish();
     assert!(status.success(), "exit status after SIGTERM: {status:?}");
     assert!(messages
         .iter()
-        .any(|(_, m)| matches!(m, MavMessage::HEARTBEAT(_))));
+        .any(|s| matches!(s.msg, MavMessage::HEARTBEAT(_))));
     // The stats are written on a signalled stop too.
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();

@@ -1,15 +1,16 @@
 //! pymavlink, given the project's dialect XML, decodes what mgmot's encoders produce.
-//! Needs python3 with pymavlink (`pip install pymavlink`); fails, naming what is missing, if
-//! it is not there.
+//! Needs python3 with pymavlink (scripts/requirements-test.txt; scripts/test.sh installs it
+//! into `.venv`); fails, naming what is missing, if it is not there.
 
+mod common;
+
+use common::{repo_file, require_python, TestCommand, TestDir};
 use mavlink_core::{MavHeader, MavlinkVersion};
 use mgmot::frame::GeoFix;
 use mgmot::geo::Geodetic;
 use mgmot::mavlink::{heartbeat, mgmot_track, statustext, Severity};
 use mgmot::report::TrackReport;
 use mgmot::telemetry::AutopilotTimeUs;
-use std::path::Path;
-use std::process::Command;
 
 #[test]
 fn pymavlink_decodes_mgmot_messages() {
@@ -45,19 +46,17 @@ fn pymavlink_decodes_mgmot_messages() {
     ] {
         mavlink_core::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, &m).unwrap();
     }
-    let dir = tempfile::tempdir().unwrap();
-    let frames = dir.path().join("frames.bin");
-    std::fs::write(&frames, &bytes).unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/runtime_pymavlink_decode.py");
-    let out = Command::new("python3")
-        .arg(&script)
+    require_python("pymavlink_decodes_mgmot_messages", &["pymavlink"]);
+    let dir = TestDir::new();
+    let frames = dir.write("frames.bin", bytes);
+    let out = TestCommand::new("python3")
+        .arg(repo_file("scripts/runtime_pymavlink_decode.py"))
         .arg(&frames)
-        .output()
-        .expect("python3 is needed for this test");
+        .output();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
-        "pymavlink decode failed (is pymavlink installed?): {}{stdout}",
+        "pymavlink decode failed: {}{stdout}",
         String::from_utf8_lossy(&out.stderr)
     );
     let msgs: Vec<serde_json::Value> = stdout

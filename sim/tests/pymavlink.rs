@@ -3,25 +3,11 @@
 //! Starts the real `mgmot-sim` sending `udpout` to a port where
 //! `scripts/sim_pymavlink_decode.py` listens with pymavlink, and checks the decoded message
 //! set, the rates and the answers to TIMESYNC and REQUEST_MESSAGE. When python3 or pymavlink is
-//! missing the test fails and says so (scripts/test.sh installs pymavlink into `.venv`), unless
-//! `MGMOT_ALLOW_MISSING_TOOLS=1` asks for a skip.
+//! missing the test fails and says so (scripts/test.sh installs pymavlink into `.venv`): a
+//! missing tool never passes as a skip.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
-
-/// A cross-check whose tool is missing fails, naming what to install, so that a run without
-/// the tool cannot look like a pass; `MGMOT_ALLOW_MISSING_TOOLS=1` turns that into a printed skip
-/// for a developer's quick run (scripts/test.sh and CI always provide the tools).
-fn missing_tool(test: &str, why: &str) {
-    if std::env::var_os("MGMOT_ALLOW_MISSING_TOOLS").is_some_and(|v| v == "1") {
-        eprintln!("SKIPPED {test} (MGMOT_ALLOW_MISSING_TOOLS=1): {why}");
-    } else {
-        panic!(
-            "{test} needs a tool that is missing: {why}. scripts/test.sh provides it; \
-             set MGMOT_ALLOW_MISSING_TOOLS=1 to skip this check instead"
-        );
-    }
-}
 
 fn pymavlink_available() -> Result<(), String> {
     match Command::new("python3")
@@ -30,7 +16,7 @@ fn pymavlink_available() -> Result<(), String> {
     {
         Err(e) => Err(format!("python3 not runnable: {e}")),
         Ok(o) if !o.status.success() => Err(format!(
-            "pymavlink not importable ({}); install it with `pip install pymavlink`",
+            "pymavlink not importable ({}); install it with `pip install -r scripts/requirements-test.txt`",
             String::from_utf8_lossy(&o.stderr).trim()
         )),
         Ok(_) => Ok(()),
@@ -40,8 +26,10 @@ fn pymavlink_available() -> Result<(), String> {
 #[test]
 fn pymavlink_decodes_the_telemetry() {
     if let Err(why) = pymavlink_available() {
-        missing_tool("pymavlink_decodes_the_telemetry", &why);
-        return;
+        panic!(
+            "pymavlink_decodes_the_telemetry needs a tool that is missing: {why}. \
+             scripts/test.sh provides it (scripts/requirements-test.txt in .venv, on PATH)"
+        );
     }
     let script = concat!(
         env!("CARGO_MANIFEST_DIR"),
