@@ -30,7 +30,6 @@ pub use outputs::{OutputSettings, OutputsConfig};
 pub use problems::{Problem, Problems};
 pub use telemetry::{TelemetryConfig, TelemetrySettings};
 
-use crate::operator::DEFAULT_POINT_RADIUS;
 use crate::track::TrackerParams;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

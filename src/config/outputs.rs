@@ -1,7 +1,7 @@
 //! `[outputs]`: what is sent to the autopilot and GCS, and how often.
 
 use super::problems::{period, Problems};
-use super::DEFAULT_POINT_RADIUS;
+use crate::operator::DEFAULT_POINT_RADIUS;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 

@@ -8,12 +8,10 @@
 mod address;
 pub mod bridge;
 mod decode;
+pub mod dialect;
 mod encode;
 pub mod link;
 pub mod signing;
-
-include!(concat!(env!("OUT_DIR"), "/mavlink-bindings/declare.rs"));
-pub use self::mgmot as dialect;
 
 pub use address::{parse_connection, AddressError};
 pub use bridge::{Inbox, LinkInput, OperatorRequest, Outputs, ReplyTo, TelemetryUpdate};

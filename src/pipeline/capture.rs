@@ -4,7 +4,9 @@
 //! "camera back" when frames flow again. The MAVLink link and heartbeat live elsewhere and are
 //! untouched by a lost camera.
 
-use super::{PipelineError, Shutdown, SlotWriter};
+use super::error::PipelineError;
+use super::shutdown::Shutdown;
+use super::slot::SlotWriter;
 use crate::camera::{
     Backoff, CameraError, CameraStatus, Frame, FrameSource, ImageDirectory, Reconnect,
     SimSocketSource, V4l2Source,

@@ -5,11 +5,14 @@
 //! records each stage's latency.
 
 use super::capture::Delivered;
+use super::detector::Detector;
 use super::health::announce;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
+use super::shutdown::Shutdown;
+use super::slot::{SlotReader, Taken};
+use super::stats::RunStats;
 use super::telemetry::{FramePose, TelemetryState};
-use super::{Detector, RunStats, Shutdown, SlotReader, Taken};
 use crate::camera::Frame;
 use crate::config::Settings;
 use crate::frame::{geo_fix, tracker_input, GeoFix};

@@ -2,8 +2,8 @@
 //! whether position telemetry still flows, announced on change only (the core's
 //! [`ConditionReport`], the same reporter the camera and the detector use).
 
+use super::shutdown::Shutdown;
 use super::telemetry::TelemetryState;
-use super::Shutdown;
 use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::Outputs;
 use std::sync::{Arc, Mutex};

@@ -8,6 +8,7 @@
 
 mod capture;
 mod detector;
+mod error;
 mod frame_step;
 mod health;
 pub mod latency;
@@ -15,9 +16,12 @@ mod operator_link;
 mod run;
 mod shutdown;
 mod slot;
+mod stats;
 mod telemetry;
 
 pub use detector::{Detector, DetectorError, OnnxDetector, ReplayDetector};
-pub use run::{run, PipelineError, RunStats};
+pub use error::PipelineError;
+pub use run::run;
 pub use shutdown::{shutdown_signal, Shutdown, Trigger};
 pub use slot::{newest_slot, SlotReader, SlotWriter, Taken};
+pub use stats::RunStats;

@@ -5,16 +5,20 @@
 //! the link last so that what is queued goes out.
 
 use super::capture::Delivered;
+use super::detector::{Detector, OnnxDetector, ReplayDetector};
+use super::error::PipelineError;
 use super::frame_step::FrameStep;
 use super::health::{announce, heartbeat_and_telemetry_watch};
-use super::latency::{Latency, LatencyReport};
+use super::latency::Latency;
 use super::operator_link::OperatorLink;
+use super::shutdown::{shutdown_signal, Shutdown, Trigger};
+use super::slot::newest_slot;
+use super::stats::RunStats;
 use super::telemetry::TelemetryState;
-use super::{newest_slot, Detector, OnnxDetector, ReplayDetector, Shutdown, Trigger};
 use crate::camera::CameraStatus;
 use crate::config::{DetectorSettings, MavlinkSettings, Settings};
 use crate::health::{Condition, ConditionReport};
-use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, LinkStats, OperatorRequest};
+use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, OperatorRequest};
 use crate::mavlink::{Outputs, SigningSettings};
 use crate::track::Tracker;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -29,58 +33,6 @@ const REQUEST_QUEUE: usize = 8;
 
 /// How long shutdown waits for the capture thread.
 const CAPTURE_JOIN_TIMEOUT: Duration = Duration::from_secs(1);
-
-/// Why the runtime stopped with an error.
-#[derive(Debug, thiserror::Error)]
-pub enum PipelineError {
-    /// The MAVLink link could not be set up (bad connection string, unusable signing state).
-    #[error("MAVLink link: {0}")]
-    Link(#[from] link::link::LinkError),
-    /// The frame source cannot be used (an image directory that is missing or empty).
-    #[error(transparent)]
-    Frames(#[from] crate::camera::CameraError),
-    /// The detector could not be set up.
-    #[error(transparent)]
-    Detector(#[from] super::DetectorError),
-    /// The tracker parameters are invalid.
-    #[error("tracker: {0}")]
-    Tracker(String),
-    /// A configuration this version cannot run yet.
-    #[error("{0} is not implemented in this version")]
-    Unsupported(&'static str),
-    /// A thread of the pipeline panicked.
-    #[error("the {0} thread panicked")]
-    Panicked(&'static str),
-}
-
-/// Counters and latency percentiles of one run, logged and returned at the end (`mgmot run
-/// --stats-json` writes them).
-#[derive(Debug, Default, Clone, PartialEq, Eq, serde::Serialize)]
-pub struct RunStats {
-    /// Frames the source delivered.
-    pub frames_captured: u64,
-    /// Frames overwritten in the newest-frame slot before inference took them.
-    pub frames_dropped: u64,
-    /// Frames through detector and tracker.
-    pub frames_processed: u64,
-    /// Frames processed without a usable pose (tracked in the image only).
-    pub frames_without_pose: u64,
-    /// MGMOT_TRACK messages queued.
-    pub track_messages: u64,
-    /// Outgoing messages dropped because the link queue was full.
-    pub messages_dropped: u64,
-    /// Frames the detector failed on (reported by STATUSTEXT when it starts and stops failing).
-    pub detector_errors: u64,
-    /// Frames the tracker rejected.
-    pub tracker_errors: u64,
-    /// From the first frame taken by inference to the end of the last one processed (µs):
-    /// `frames_processed / active_us` is the sustained rate.
-    pub active_us: u64,
-    /// Per-stage latency percentiles over the whole run (see [`super::latency`]).
-    pub latency: LatencyReport,
-    /// The MAVLink link's counters (frames, refusals, reconnects, stream requests).
-    pub link: LinkStats,
-}
 
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
 pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
@@ -99,7 +51,7 @@ pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, Pip
         settings.outputs.target_absolute,
     )?;
     // The tasks and threads below stop on `stop`: the caller's shutdown, or the source's end.
-    let (stop_trigger, stop) = super::shutdown_signal();
+    let (stop_trigger, stop) = shutdown_signal();
     let stop_trigger = Arc::new(stop_trigger);
     let forward = forward_shutdown(shutdown, stop_trigger.clone());
 

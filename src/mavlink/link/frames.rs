@@ -2,7 +2,7 @@
 //! whole frame, checks its CRC against the dialect, and resynchronises one byte further on
 //! garbage. Pure (no IO); the link feeds it what its transport read.
 
-use crate::mavlink::dialect::MavMessage;
+use super::super::dialect::MavMessage;
 use mavlink_core::{MAVLinkMessageRaw, MAVLinkV1MessageRaw, MAVLinkV2MessageRaw};
 
 const STX_V1: u8 = 0xFE;

@@ -31,9 +31,10 @@ pub mod streams;
 pub mod timesync;
 pub mod transport;
 
+use super::address::AddressError;
 use super::dialect::{self, MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA};
+use super::encode::{message_interval_request, timesync_request};
 use super::signing::{Refusal, Signer, SigningStateError};
-use super::{message_interval_request, AddressError};
 use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
 use frames::FrameParser;
 use mavlink_core::{MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, Message, MessageData};
@@ -622,7 +623,7 @@ impl LinkTask {
         let now = crate::clock::now();
         let ts1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
         self.timesync.sent(ts1);
-        Some(match super::timesync_request(now) {
+        Some(match timesync_request(now) {
             MavMessage::TIMESYNC(mut t) => {
                 // Addressed to the autopilot: a ground station that also answers broadcast
                 // requests is not asked.

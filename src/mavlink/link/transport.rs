@@ -37,9 +37,9 @@ pub enum Endpoint {
 
 impl Endpoint {
     /// Parses a connection string checked by [`crate::mavlink::parse_connection`].
-    pub fn parse(s: &str) -> Result<Self, crate::mavlink::AddressError> {
-        crate::mavlink::parse_connection(s)?;
-        let form = || crate::mavlink::AddressError::Form(s.to_owned());
+    pub fn parse(s: &str) -> Result<Self, super::super::address::AddressError> {
+        super::super::address::parse_connection(s)?;
+        let form = || super::super::address::AddressError::Form(s.to_owned());
         let (scheme, rest) = s.split_once(':').ok_or_else(form)?;
         Ok(match scheme {
             "serial" => {
@@ -48,7 +48,7 @@ impl Endpoint {
                     device: device.to_owned(),
                     baud: baud
                         .parse()
-                        .map_err(|_| crate::mavlink::AddressError::Baud(s.to_owned()))?,
+                        .map_err(|_| super::super::address::AddressError::Baud(s.to_owned()))?,
                 }
             }
             "udpin" => Endpoint::UdpIn(rest.to_owned()),
