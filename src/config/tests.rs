@@ -19,6 +19,18 @@ kind = "replay"
 detections = "dets.json"
 "#;
 
+/// The dotted keys of every problem `validate` finds in `text` (which must parse and be
+/// invalid).
+fn problem_keys(text: &str) -> Vec<String> {
+    Config::parse(text)
+        .unwrap()
+        .validate()
+        .unwrap_err()
+        .into_iter()
+        .map(|p| p.key)
+        .collect()
+}
+
 const ONNX: &str = r#"
 [mavlink]
 connection = "udpin:0.0.0.0:14550"
@@ -113,13 +125,7 @@ fn invalid_values_name_their_keys() {
             "[outputs]\ntrack_rate_hz = 0\ncamera_tracking_hz = -1\ntrack_point_radius = 2\n\
              [mavlink.signing]\nkey_hex = \"abc\"\n[frames]",
         );
-    let c = Config::parse(&text).unwrap();
-    let keys: Vec<String> = c
-        .validate()
-        .unwrap_err()
-        .into_iter()
-        .map(|p| p.key)
-        .collect();
+    let keys = problem_keys(&text);
     assert_eq!(
         keys,
         [
@@ -177,13 +183,7 @@ fn frame_sources_parse_with_defaults_and_name_bad_keys() {
     let bad = v4l2
         .replace("NV12", "RGB3")
         .replace("fps = 30", "fps = 30\nbuffers = 1\nreconnect_max_ms = 10");
-    let keys: Vec<String> = Config::parse(&bad)
-        .unwrap()
-        .validate()
-        .unwrap_err()
-        .into_iter()
-        .map(|p| p.key)
-        .collect();
+    let keys = problem_keys(&bad);
     assert_eq!(
         keys,
         [
@@ -242,16 +242,10 @@ fn onnx_detector_tiling_keys() {
         (Some(640), 96, true)
     );
     assert_eq!(onnx_settings(&Config::parse(ONNX).unwrap()).tiling, None);
-    let keys: Vec<String> = Config::parse(&ONNX.replace(
+    let keys = problem_keys(&ONNX.replace(
         "kind = \"onnx\"",
         "kind = \"onnx\"\ntile = true\ntile_size_px = 100\ntile_overlap_px = 100",
-    ))
-    .unwrap()
-    .validate()
-    .unwrap_err()
-    .into_iter()
-    .map(|p| p.key)
-    .collect();
+    ));
     assert_eq!(keys, ["detector.tile_overlap_px"]);
 }
 
@@ -264,13 +258,7 @@ fn onnx_detector_problems_name_their_keys() {
          larger_box_iou = 0.0\nmax_detections = 0",
         )
         .replace("[\"swimmer\", \"boat\"]", "[\"swimmer\", \" \"]");
-    let keys: Vec<String> = Config::parse(&text)
-        .unwrap()
-        .validate()
-        .unwrap_err()
-        .into_iter()
-        .map(|p| p.key)
-        .collect();
+    let keys = problem_keys(&text);
     assert_eq!(
         keys,
         [
