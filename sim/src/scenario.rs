@@ -118,6 +118,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "mixed_mission_soak",
         include_str!("../scenarios/mixed_mission_soak.toml"),
     ),
+    (
+        "ardupilot_servo",
+        include_str!("../scenarios/ardupilot_servo.toml"),
+    ),
 ];
 
 /// A complete scenario.
@@ -551,6 +555,13 @@ pub struct Faults {
     pub camera_time_offset_ms: f64,
     /// Windows `[[start_s, duration_s], ...]` in which the autopilot sends nothing.
     pub dropouts: Vec<[f64; 2]>,
+    /// Times (s) at which the autopilot reboots: it is silent for
+    /// [`crate::world::REBOOT_SILENCE_S`], its `time_boot_ms` starts again from there, and it
+    /// forgets every SET_MESSAGE_INTERVAL.
+    pub reboots_s: Vec<f64>,
+    /// A ground station also answers every TIMESYNC request (the autopilot forwards mgmot's
+    /// requests to it and its answers back), from system 255 with its own clock.
+    pub gcs_timesync_answers: bool,
 }
 
 /// How the autopilot reports.
@@ -566,6 +577,10 @@ pub struct Telemetry {
     pub boot_time_s: f64,
     /// MAVLink system id of the simulated vehicle.
     pub system_id: u8,
+    /// Whose habits the simulated autopilot has.
+    pub autopilot: AutopilotKind,
+    /// What the gimbal's attitude report means.
+    pub gimbal_report: GimbalReport,
 }
 
 impl Default for Telemetry {
@@ -575,8 +590,39 @@ impl Default for Telemetry {
             rate_jitter: 0.05,
             boot_time_s: 120.0,
             system_id: 1,
+            autopilot: AutopilotKind::Generic,
+            gimbal_report: GimbalReport::AsFlagged,
         }
     }
+}
+
+/// The habits of the simulated autopilot.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum AutopilotKind {
+    /// Every stream at its default rate from the start; every message the simulator knows is
+    /// sent, GIMBAL_DEVICE_ATTITUDE_STATUS from a gimbal component (154).
+    #[default]
+    Generic,
+    /// As ArduCopter (upstream 90700977c5, seen in its SITL): only HEARTBEAT until a stream
+    /// is asked for (the default stream rates are 0, and every request is forgotten at a
+    /// reboot); MOUNT_ORIENTATION is refused (DENIED) and never sent;
+    /// GIMBAL_DEVICE_ATTITUDE_STATUS comes from the autopilot's own component (1) with
+    /// gimbal device id 1.
+    Ardupilot,
+}
+
+/// What the gimbal's attitude report (GIMBAL_DEVICE_ATTITUDE_STATUS) means.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum GimbalReport {
+    /// What its flags say (`gimbal_yaw_frame`): a stabilised gimbal reporting its attitude.
+    #[default]
+    AsFlagged,
+    /// As ArduPilot's servo mount (MNT1_TYPE 1): the servo angles after the autopilot's own
+    /// lean compensation, i.e. relative to the vehicle body, while the flags still claim
+    /// earth-frame roll and pitch and a vehicle-frame yaw.
+    ServoBodyFrame,
 }
 
 /// Detection simulator parameters.
@@ -979,6 +1025,13 @@ fn check_faults(f: &Faults, p: &mut Problems) {
         ("faults.gps_noise_m", f.gps_noise_m),
     ] {
         p.require(finite(v) && v >= 0.0, field, "must be >= 0");
+    }
+    for (j, r) in f.reboots_s.iter().enumerate() {
+        p.require(
+            finite(*r) && *r >= 0.0,
+            &format!("faults.reboots_s[{j}]"),
+            "must be a time >= 0",
+        );
     }
 }
 

@@ -3,8 +3,8 @@
 //! faulty state), and the answers to TIMESYNC, SET_MESSAGE_INTERVAL and REQUEST_MESSAGE.
 //! No IO here: the binary moves these messages over a link.
 
-use crate::scenario::YawFrame;
-use crate::world::World;
+use crate::scenario::{AutopilotKind, GimbalReport, YawFrame};
+use crate::world::{World, REBOOT_SILENCE_S};
 // MOUNT_ORIENTATION is deprecated in common.xml but still what many gimbal drivers and
 // ground stations read; the simulator sends it alongside the gimbal protocol v2 message.
 use mavlink::Message;
@@ -83,6 +83,23 @@ impl Stream {
     fn from_message_id(id: u32) -> Option<Stream> {
         Stream::ALL.into_iter().find(|s| s.message_id() == id)
     }
+
+    /// The interval the stream has when nobody asked for another (`None`: off). ArduCopter's
+    /// default stream rates are 0: only its HEARTBEAT flows unasked.
+    pub fn start_interval_s(self, kind: AutopilotKind) -> Option<f64> {
+        match kind {
+            AutopilotKind::Generic => Some(self.default_interval_s()),
+            AutopilotKind::Ardupilot => {
+                (self == Stream::Heartbeat).then(|| self.default_interval_s())
+            }
+        }
+    }
+
+    /// Whether the autopilot can send this stream at all. ArduPilot has no MOUNT_ORIENTATION
+    /// in its message set ("No ap_message for mavlink id (265)").
+    fn offered_by(self, kind: AutopilotKind) -> bool {
+        !(kind == AutopilotKind::Ardupilot && self == Stream::MountOrientation)
+    }
 }
 
 /// When each stream is next due, and at which interval.
@@ -92,6 +109,10 @@ pub struct Scheduler {
     entries: Vec<(Stream, Option<f64>, f64)>,
     jitter: f64,
     rng: ChaCha8Rng,
+    kind: AutopilotKind,
+    /// `faults.reboots_s` in order, and how many of them have happened.
+    reboots: Vec<f64>,
+    rebooted: usize,
 }
 
 impl Scheduler {
@@ -99,20 +120,39 @@ impl Scheduler {
     pub fn new(world: &World) -> Scheduler {
         let mut rng = ChaCha8Rng::seed_from_u64(world.seed);
         rng.set_stream(STREAM_JITTER);
-        let entries = Stream::ALL
-            .iter()
-            .enumerate()
-            .map(|(i, s)| (*s, Some(s.default_interval_s()), 0.001 * i as f64))
-            .collect();
-        Scheduler {
-            entries,
+        let kind = world.scenario.telemetry.autopilot;
+        let mut reboots = world.scenario.faults.reboots_s.clone();
+        reboots.sort_by(f64::total_cmp);
+        let mut scheduler = Scheduler {
+            entries: Vec::new(),
             jitter: world.scenario.telemetry.rate_jitter,
             rng,
-        }
+            kind,
+            reboots,
+            rebooted: 0,
+        };
+        scheduler.restart(0.0);
+        scheduler
+    }
+
+    /// Every stream back at its start-up interval, the first messages at `t_s` (staggered).
+    fn restart(&mut self, t_s: f64) {
+        let kind = self.kind;
+        self.entries = Stream::ALL
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (*s, s.start_interval_s(kind), t_s + 0.001 * i as f64))
+            .collect();
     }
 
     /// Pops every message due at or before `t_s`, in time order, as `(send_time_s, stream)`.
+    /// A reboot (`faults.reboots_s`) on the way forgets every interval asked for; the
+    /// autopilot speaks again [`REBOOT_SILENCE_S`] later.
     pub fn due(&mut self, t_s: f64) -> Vec<(f64, Stream)> {
+        while let Some(&r) = self.reboots.get(self.rebooted).filter(|r| **r <= t_s) {
+            self.rebooted += 1;
+            self.restart(r + REBOOT_SILENCE_S);
+        }
         let mut out = Vec::new();
         loop {
             let next = self
@@ -147,10 +187,14 @@ impl Scheduler {
         let Some(stream) = Stream::from_message_id(message_id) else {
             return MavResult::MAV_RESULT_UNSUPPORTED;
         };
+        if !stream.offered_by(self.kind) {
+            // What ArduPilot answers for a message id it has no sender for.
+            return MavResult::MAV_RESULT_DENIED;
+        }
         let interval = if interval_us < -0.5 {
             None
         } else if interval_us < 0.5 {
-            Some(stream.default_interval_s())
+            stream.start_interval_s(self.kind)
         } else if interval_us < 1000.0 {
             // Faster than 1 kHz is not something a real autopilot accepts.
             return MavResult::MAV_RESULT_DENIED;
@@ -165,6 +209,25 @@ impl Scheduler {
         }
         MavResult::MAV_RESULT_ACCEPTED
     }
+}
+
+/// Who sends a reply: the vehicle (its autopilot or gimbal component), or a ground station
+/// whose messages the autopilot forwards.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sender {
+    /// The simulated vehicle.
+    Vehicle,
+    /// A ground station (system 255, component 190).
+    GroundStation,
+}
+
+/// A message to send in answer to one received.
+#[derive(Debug, Clone)]
+pub struct Reply {
+    /// Who sends it.
+    pub sender: Sender,
+    /// The message.
+    pub msg: MavMessage,
 }
 
 /// Builds the autopilot's messages from the world.
@@ -258,7 +321,31 @@ impl<'w> Autopilot<'w> {
                         )
                     }
                 };
-                let q = UnitQuaternion::from_euler_angles(0.0, pitch, yaw);
+                let (q, flags) = match w.scenario.telemetry.gimbal_report {
+                    GimbalReport::AsFlagged => {
+                        (UnitQuaternion::from_euler_angles(0.0, pitch, yaw), flags)
+                    }
+                    GimbalReport::ServoBodyFrame => {
+                        // The servos hold the camera's earth-frame pointing by leaning against
+                        // the vehicle: what they are commanded is the camera relative to the
+                        // body, vehicle^-1 * camera, which ArduPilot reports under flags for
+                        // earth-frame roll and pitch and a vehicle-frame yaw.
+                        let vehicle = UnitQuaternion::from_euler_angles(
+                            rep.roll_deg.to_radians(),
+                            rep.pitch_deg.to_radians(),
+                            rep.yaw_deg.to_radians(),
+                        );
+                        let camera = UnitQuaternion::from_euler_angles(
+                            0.0,
+                            pitch,
+                            rep.cam_heading_deg.to_radians(),
+                        );
+                        (
+                            vehicle.inverse() * camera,
+                            GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME,
+                        )
+                    }
+                };
                 MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
                     time_boot_ms: boot_ms,
                     q: [q.w as f32, q.i as f32, q.j as f32, q.k as f32],
@@ -268,6 +355,11 @@ impl<'w> Autopilot<'w> {
                     flags: flags
                         | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_ROLL_LOCK
                         | GimbalDeviceFlags::GIMBAL_DEVICE_FLAGS_PITCH_LOCK,
+                    // ArduPilot numbers its mounts from 1 and sends as the autopilot; a gimbal
+                    // device speaking for itself (component 154) sends 0.
+                    gimbal_device_id: u8::from(
+                        w.scenario.telemetry.autopilot == AutopilotKind::Ardupilot,
+                    ),
                     ..Default::default()
                 })
             }
@@ -310,18 +402,38 @@ impl<'w> Autopilot<'w> {
         from: (u8, u8),
         now_s: f64,
         scheduler: &mut Scheduler,
-    ) -> Vec<MavMessage> {
+    ) -> Vec<Reply> {
+        let vehicle = |msg| Reply {
+            sender: Sender::Vehicle,
+            msg,
+        };
         match msg {
             MavMessage::TIMESYNC(ts) if ts.tc1 == 0 => {
                 let now_ns = (self.world.autopilot_time_us(now_s) as i64).saturating_mul(1000);
-                vec![MavMessage::TIMESYNC(TIMESYNC_DATA {
-                    tc1: now_ns,
-                    ts1: ts.ts1,
-                    target_system: from.0,
-                    target_component: from.1,
-                })]
+                let answer = |tc1: i64| {
+                    MavMessage::TIMESYNC(TIMESYNC_DATA {
+                        tc1,
+                        ts1: ts.ts1,
+                        target_system: from.0,
+                        target_component: from.1,
+                    })
+                };
+                let mut replies = vec![vehicle(answer(now_ns))];
+                if self.world.scenario.faults.gcs_timesync_answers {
+                    // The ground station answers with its own clock (UNIX time).
+                    let unix_s = self.world.scenario.origin.start_unix_s + now_s;
+                    replies.push(Reply {
+                        sender: Sender::GroundStation,
+                        msg: answer((unix_s * 1e9) as i64),
+                    });
+                }
+                replies
             }
-            MavMessage::COMMAND_LONG(cmd) => self.command(cmd, from, now_s, scheduler),
+            MavMessage::COMMAND_LONG(cmd) => self
+                .command(cmd, from, now_s, scheduler)
+                .into_iter()
+                .map(vehicle)
+                .collect(),
             _ => Vec::new(),
         }
     }
@@ -352,7 +464,9 @@ impl<'w> Autopilot<'w> {
                     scheduler.set_interval(cmd.param1 as u32, f64::from(cmd.param2), now_s);
                 vec![ack(result)]
             }
-            MavCmd::MAV_CMD_REQUEST_MESSAGE => match Stream::from_message_id(cmd.param1 as u32) {
+            MavCmd::MAV_CMD_REQUEST_MESSAGE => match Stream::from_message_id(cmd.param1 as u32)
+                .filter(|s| s.offered_by(self.world.scenario.telemetry.autopilot))
+            {
                 Some(stream) => vec![
                     ack(MavResult::MAV_RESULT_ACCEPTED),
                     self.message(stream, now_s),
@@ -459,6 +573,50 @@ mod tests {
     }
 
     #[test]
+    fn servo_body_frame_report_composes_with_the_vehicle_to_the_true_camera() {
+        let mut s = Scenario::load("ardupilot_servo").unwrap();
+        s.faults = Default::default();
+        let w = World::new(s, 5);
+        let ap = Autopilot::new(&w).unwrap();
+        let mut leaning = 0;
+        for k in 0..300 {
+            let t = 0.1 * f64::from(k);
+            let MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) =
+                ap.message(Stream::GimbalDeviceAttitudeStatus, t)
+            else {
+                panic!()
+            };
+            assert_eq!(g.gimbal_device_id, 1);
+            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                f64::from(g.q[0]),
+                f64::from(g.q[1]),
+                f64::from(g.q[2]),
+                f64::from(g.q[3]),
+            ));
+            let truth = w.truth(t);
+            let vehicle = UnitQuaternion::from_euler_angles(
+                truth.roll_deg.to_radians(),
+                truth.pitch_deg.to_radians(),
+                truth.yaw_deg.to_radians(),
+            );
+            let want =
+                camera_from_heading_pitch_deg(truth.cam_heading_deg, truth.cam_pitch_deg, 0.0);
+            let body = camera_from_gimbal_quaternion(&q, GimbalYawFrame::Body, &vehicle);
+            assert!(
+                body.angle_to(&want) < 1e-5,
+                "t {t}: {}",
+                body.angle_to(&want)
+            );
+            let flagged = camera_from_gimbal_quaternion(&q, GimbalYawFrame::Vehicle, &vehicle);
+            if truth.pitch_deg.abs() > 5.0 || truth.roll_deg.abs() > 5.0 {
+                leaning += 1;
+                assert!(flagged.angle_to(&want) > 2f64.to_radians(), "t {t}");
+            }
+        }
+        assert!(leaning > 100, "the scenario leans: {leaning}");
+    }
+
+    #[test]
     fn answers_timesync_and_request_message() {
         let w = world("calm_baseline");
         let ap = Autopilot::new(&w).unwrap();
@@ -473,7 +631,7 @@ mod tests {
             1.0,
             &mut sch,
         );
-        let MavMessage::TIMESYNC(ts) = &r[0] else {
+        let MavMessage::TIMESYNC(ts) = &r[0].msg else {
             panic!()
         };
         assert_eq!(ts.ts1, 42);
@@ -486,8 +644,8 @@ mod tests {
         let r = ap.handle(&req, (255, 190), 1.0, &mut sch);
         assert_eq!(r.len(), 2);
         assert!(
-            matches!(&r[0], MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)
+            matches!(&r[0].msg, MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)
         );
-        assert!(matches!(&r[1], MavMessage::HOME_POSITION(_)));
+        assert!(matches!(&r[1].msg, MavMessage::HOME_POSITION(_)));
     }
 }

@@ -18,6 +18,9 @@ const STREAM_FAULTS: u64 = 2;
 /// consumer GNSS receiver.
 const GPS_CORRELATION_S: f64 = 5.0;
 
+/// How long a rebooting autopilot is silent; its `time_boot_ms` is this at its first message.
+pub const REBOOT_SILENCE_S: f64 = 3.0;
+
 /// Everything about one run.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -123,11 +126,24 @@ impl World {
 
     /// True when the telemetry link is down at `t_s` (a `faults.dropouts` window).
     pub fn in_dropout(&self, t_s: f64) -> bool {
-        self.scenario
-            .faults
-            .dropouts
+        let f = &self.scenario.faults;
+        f.dropouts
             .iter()
             .any(|[start, dur]| t_s >= *start && t_s < start + dur)
+            || f.reboots_s
+                .iter()
+                .any(|r| t_s >= *r && t_s < r + REBOOT_SILENCE_S)
+    }
+
+    /// The latest reboot at or before `t_s` (`faults.reboots_s`).
+    pub fn last_reboot_s(&self, t_s: f64) -> Option<f64> {
+        self.scenario
+            .faults
+            .reboots_s
+            .iter()
+            .copied()
+            .filter(|r| *r <= t_s)
+            .max_by(f64::total_cmp)
     }
 
     /// The metadata a drone log would attach to the frame captured at true time `t_s`: the
@@ -150,8 +166,13 @@ impl World {
     }
 
     /// The autopilot clock (`time_boot_ms` in microseconds) at sim time `t_s`.
+    /// After a reboot the clock starts again from 0 at the reboot.
     pub fn autopilot_time_us(&self, t_s: f64) -> u64 {
-        ((self.scenario.telemetry.boot_time_s + t_s).max(0.0) * 1e6).round() as u64
+        let since_boot = match self.last_reboot_s(t_s) {
+            Some(r) => t_s - r,
+            None => self.scenario.telemetry.boot_time_s + t_s,
+        };
+        (since_boot.max(0.0) * 1e6).round() as u64
     }
 
     /// The timestamp a frame captured at true time `t_s` carries, on the autopilot's clock

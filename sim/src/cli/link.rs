@@ -5,7 +5,8 @@
 use mavlink::{MavConnection, MavHeader, MavlinkVersion};
 use mgmot::mavlink::dialect::MavMessage;
 use mgmot_sim::monitor::{TrackCheck, TrackMonitor};
-use mgmot_sim::telemetry::{Autopilot, Scheduler};
+use mgmot_sim::scenario::AutopilotKind;
+use mgmot_sim::telemetry::{Autopilot, Reply, Scheduler, Sender};
 use mgmot_sim::world::World;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -23,6 +24,10 @@ const RETRY: Duration = Duration::from_secs(1);
 const COMP_AUTOPILOT: u8 = 1;
 /// MAV_COMP_ID_GIMBAL: gimbal device messages come from the gimbal's own component.
 const COMP_GIMBAL: u8 = 154;
+/// A ground station's system id (`faults.gcs_timesync_answers`).
+const GCS_SYSTEM: u8 = 255;
+/// MAV_COMP_ID_MISSIONPLANNER.
+const GCS_COMPONENT: u8 = 190;
 
 /// Sim time shared with the receive thread (f64 bits), so replies carry the current time.
 ///
@@ -122,13 +127,19 @@ impl Link {
 
 type Conn = Arc<dyn MavConnection<MavMessage> + Send + Sync>;
 
-fn header(world: &World, seq: &AtomicU8, msg: &MavMessage) -> MavHeader {
-    let component_id = match msg {
-        MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(_) => COMP_GIMBAL,
-        _ => COMP_AUTOPILOT,
+fn header(world: &World, seq: &AtomicU8, msg: &MavMessage, sender: Sender) -> MavHeader {
+    let (system_id, component_id) = match (sender, msg) {
+        (Sender::GroundStation, _) => (GCS_SYSTEM, GCS_COMPONENT),
+        // ArduPilot sends its mounts' status as the autopilot.
+        (Sender::Vehicle, MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(_))
+            if world.scenario.telemetry.autopilot == AutopilotKind::Generic =>
+        {
+            (world.scenario.telemetry.system_id, COMP_GIMBAL)
+        }
+        (Sender::Vehicle, _) => (world.scenario.telemetry.system_id, COMP_AUTOPILOT),
     };
     MavHeader {
-        system_id: u32::from(world.scenario.telemetry.system_id),
+        system_id: u32::from(system_id),
         component_id,
         sequence: seq.fetch_add(1, Ordering::Relaxed),
     }
@@ -205,7 +216,7 @@ fn link_thread(
                 Err(RecvTimeoutError::Timeout) => continue,
                 Err(RecvTimeoutError::Disconnected) => return,
             };
-            match conn.send(&header(&world, &seq, &msg), &msg) {
+            match conn.send(&header(&world, &seq, &msg, Sender::Vehicle), &msg) {
                 Ok(_) => {
                     sent.fetch_add(1, Ordering::Relaxed);
                 }
@@ -271,9 +282,13 @@ fn receive_loop(conn: Conn, ctx: &Receiving<'_>, broken: &AtomicBool, stream_ori
                     Ok(mut s) => autopilot.handle(&msg, sender, clock.get(), &mut s),
                     Err(_) => return,
                 };
-                for r in replies {
-                    tracing::debug!(reply = mgmot_sim::telemetry::message_name(&r), "answering");
-                    if let Err(e) = conn.send(&header(world, seq, &r), &r) {
+                for Reply { sender, msg: r } in replies {
+                    tracing::debug!(
+                        reply = mgmot_sim::telemetry::message_name(&r),
+                        ?sender,
+                        "answering"
+                    );
+                    if let Err(e) = conn.send(&header(world, seq, &r, sender), &r) {
                         tracing::debug!(error = %e, "reply not sent");
                     }
                 }
