@@ -28,7 +28,7 @@ pub use geolocation::{GeolocationConfig, GeolocationSettings, DEFAULT_MAX_RANGE_
 pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings};
 pub use outputs::{OutputSettings, OutputsConfig};
 pub use problems::{Problem, Problems};
-pub use telemetry::{TelemetryConfig, TelemetrySettings};
+pub use telemetry::{GimbalReport, TelemetryConfig, TelemetrySettings};
 
 use crate::track::TrackerParams;
 use serde::{Deserialize, Serialize};

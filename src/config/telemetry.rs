@@ -23,6 +23,25 @@ pub struct TelemetryConfig {
     /// down) relative to the body; absent: the gimbal's telemetry is used.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fixed_mount_pitch_deg: Option<f64>,
+    /// What the gimbal's attitude report means: `as_flagged` (a gimbal reporting its own
+    /// attitude, read as its flags say) or `servo_body_frame` (ArduPilot's servo mount,
+    /// `MNT1_TYPE 1`: the servo angles relative to the vehicle body, whatever the flags say).
+    pub gimbal_report: GimbalReport,
+}
+
+/// What a gimbal attitude report (GIMBAL_DEVICE_ATTITUDE_STATUS, MOUNT_STATUS) means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GimbalReport {
+    /// As its flags say: roll and pitch relative to the horizon, yaw relative to north or to
+    /// the vehicle's heading (a MAVLink gimbal, ArduPilot's brushless mounts).
+    #[default]
+    AsFlagged,
+    /// Relative to the vehicle body on all three axes. ArduPilot's servo mount (upstream
+    /// 90700977c5, `AP_Mount_Servo::get_attitude_quaternion`) reports the servo angles after
+    /// its own lean compensation, under flags that claim earth-frame roll and pitch: read as
+    /// flagged, a leaning vehicle moves every position by metres.
+    ServoBodyFrame,
 }
 
 impl Default for TelemetryConfig {
@@ -33,6 +52,7 @@ impl Default for TelemetryConfig {
             water_level_amsl_m: None,
             lost_after_ms: 2000.0,
             fixed_mount_pitch_deg: None,
+            gimbal_report: GimbalReport::AsFlagged,
         }
     }
 }
@@ -50,6 +70,8 @@ pub struct TelemetrySettings {
     pub lost_after: Duration,
     /// Pitch of a hard-mounted camera (deg, -90..=90); `None`: on a gimbal.
     pub fixed_mount_pitch_deg: Option<f64>,
+    /// What the gimbal's attitude report means.
+    pub gimbal_report: GimbalReport,
 }
 
 impl TelemetryConfig {
@@ -99,6 +121,7 @@ impl TelemetryConfig {
             water_level_amsl_m: water_level_amsl_m?,
             lost_after: lost_after?,
             fixed_mount_pitch_deg: fixed_mount_pitch_deg?,
+            gimbal_report: self.gimbal_report,
         })
     }
 }

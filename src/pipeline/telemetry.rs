@@ -3,10 +3,13 @@
 //! it: where was the camera when this frame was exposed?
 
 use crate::camera::CaptureTime;
-use crate::config::TelemetrySettings;
+use crate::config::{GimbalReport, TelemetrySettings};
+use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::{FrameMetadata, Geodetic};
 use crate::mavlink::TelemetryUpdate;
-use crate::telemetry::{AutopilotTimeUs, ClockSync, CompanionTimeUs, NoPose, PoseBuffer};
+use crate::telemetry::{
+    AutopilotTimeUs, ClockSync, CompanionTimeUs, GimbalSample, NoPose, PoseBuffer,
+};
 use nalgebra::UnitQuaternion;
 
 /// What the link's telemetry has told so far.
@@ -22,6 +25,8 @@ pub(super) struct TelemetryState {
     water_level_amsl_m: Option<f64>,
     /// `telemetry.camera_latency_ms`: exposure happens this long before the frame's stamp.
     camera_latency_us: u64,
+    /// `telemetry.gimbal_report`: what the gimbal's reports mean.
+    gimbal_report: GimbalReport,
 }
 
 /// A frame's pose, as far as telemetry knows it.
@@ -55,6 +60,7 @@ impl TelemetryState {
             last_position_at: None,
             water_level_amsl_m: t.water_level_amsl_m,
             camera_latency_us: micros(t.camera_latency),
+            gimbal_report: t.gimbal_report,
         }
     }
 
@@ -70,11 +76,11 @@ impl TelemetryState {
                 self.clock.observe_arrival(sample.time, at);
                 self.poses.push_attitude(sample);
             }
-            TelemetryUpdate::Gimbal(g) => self.poses.push_gimbal(g),
+            TelemetryUpdate::Gimbal(g) => self.poses.push_gimbal(self.as_mounted(g)),
             TelemetryUpdate::GimbalAtArrival { mut sample, at } => {
                 if let Some(time) = self.clock.to_autopilot(at) {
                     sample.time = time;
-                    self.poses.push_gimbal(sample);
+                    self.poses.push_gimbal(self.as_mounted(sample));
                 }
             }
             TelemetryUpdate::Home(h) => self.home = Some(h),
@@ -87,6 +93,14 @@ impl TelemetryState {
                 let _ = self.clock.observe_timesync(sent, autopilot, at);
             }
         }
+    }
+
+    /// A gimbal report read as `telemetry.gimbal_report` says.
+    fn as_mounted(&self, mut g: GimbalSample) -> GimbalSample {
+        if self.gimbal_report == GimbalReport::ServoBodyFrame {
+            g.frame = GimbalYawFrame::Body;
+        }
+        g
     }
 
     /// When the latest position fix arrived.
