@@ -24,4 +24,4 @@ pub mod logging;
 pub mod mavlink;
 pub mod pipeline;
 
-pub use mgmot_core::{eval, frame, geo, health, operator, report, telemetry, track};
+pub use mgmot_core::{digest, eval, frame, geo, health, operator, report, telemetry, track};

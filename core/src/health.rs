@@ -39,6 +39,8 @@ impl Condition {
 pub enum Level {
     /// Something works (again).
     Info,
+    /// Normal but significant: an object was found.
+    Notice,
     /// Something is broken: the operator should know.
     Warning,
 }

@@ -16,9 +16,12 @@
 //!   world state -> its geodetic fix (shared by the onboard runtime and `mgmot track`).
 //! - [`report`]: what the outputs say about a track and about the operator-selected one.
 //! - [`operator`]: which track an operator's click or rectangle selects, kept by id.
+//! - [`digest`]: the tracks as short texts (STATUSTEXT) for a ground station that only hears
+//!   the autopilot's telemetry radio.
 //! - [`health`]: loss and return of telemetry, camera and detector, reported on change only.
 #![warn(missing_docs)]
 
+pub mod digest;
 pub mod eval;
 pub mod frame;
 pub mod geo;

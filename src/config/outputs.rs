@@ -1,6 +1,7 @@
 //! `[outputs]`: what is sent to the autopilot and GCS, and how often.
 
 use super::problems::{period, Problems};
+use crate::digest::DigestSettings;
 use crate::operator::DEFAULT_POINT_RADIUS;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
@@ -21,6 +22,12 @@ pub struct OutputsConfig {
     /// How far from a track's box a MAV_CMD_CAMERA_TRACK_POINT may land and still select it,
     /// as a fraction of the image width, when the command's own radius (param 3) is 0.
     pub track_point_radius: f64,
+    /// For a ground station that only hears the autopilot's telemetry radio (which forwards
+    /// no MGMOT_TRACK): a STATUSTEXT per newly found object with its position, and every this
+    /// many seconds a count by class with the latest positions. 0 turns the digest off.
+    pub radio_digest_every_s: f64,
+    /// Positions listed in each periodic digest (the most recently seen tracks).
+    pub radio_digest_positions: usize,
 }
 
 impl Default for OutputsConfig {
@@ -31,6 +38,8 @@ impl Default for OutputsConfig {
             heartbeat_hz: 1.0,
             camera_tracking_hz: 5.0,
             track_point_radius: DEFAULT_POINT_RADIUS,
+            radio_digest_every_s: 15.0,
+            radio_digest_positions: 3,
         }
     }
 }
@@ -48,6 +57,8 @@ pub struct OutputSettings {
     pub camera_tracking_every: Duration,
     /// Selection radius of MAV_CMD_CAMERA_TRACK_POINT (fraction of the image width, 0..=1).
     pub track_point_radius: f64,
+    /// The STATUSTEXT digest of the tracks; `None`: off.
+    pub radio_digest: Option<DigestSettings>,
 }
 
 impl OutputsConfig {
@@ -74,12 +85,34 @@ impl OutputsConfig {
             "must be in 0..=1 (a fraction of the image width)",
             radius,
         );
+        const DIGEST: &str = "outputs.radio_digest_every_s";
+        let every = self.radio_digest_every_s;
+        let radio_digest = p
+            .check(
+                every.is_finite() && (every == 0.0 || (1.0..=3600.0).contains(&every)),
+                DIGEST,
+                "must be 0 (off) or 1..=3600 seconds",
+                every,
+            )
+            .map(|every| {
+                (every > 0.0).then(|| DigestSettings {
+                    every_us: (every * 1e6) as u64,
+                    max_positions: self.radio_digest_positions,
+                })
+            });
+        let positions = p.check(
+            self.radio_digest_positions <= 20,
+            "outputs.radio_digest_positions",
+            "must be at most 20 (each is one STATUSTEXT on the radio)",
+            self.radio_digest_positions,
+        );
         Some(OutputSettings {
             track_every: track_every?,
             target_absolute: self.target_absolute,
             heartbeat_every: heartbeat_every?,
             camera_tracking_every: camera_tracking_every?,
             track_point_radius: track_point_radius?,
+            radio_digest: positions.and(radio_digest)?,
         })
     }
 }

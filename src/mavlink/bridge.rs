@@ -251,6 +251,7 @@ impl Outputs {
     pub fn notice(&self, notice: &Notice) {
         let severity = match notice.level {
             Level::Info => Severity::Info,
+            Level::Notice => Severity::Notice,
             Level::Warning => Severity::Warning,
         };
         self.sender.send(statustext(severity, &notice.text));

@@ -5,12 +5,14 @@ use crate::report::{TrackReport, TrackingMode, TrackingStatus};
 use crate::telemetry::CompanionTimeUs;
 use mavlink_core::MessageData;
 
-// MOUNT_ORIENTATION is deprecated in common.xml but still what ArduPilot sends for legacy
-// gimbals.
+// MOUNT_ORIENTATION is deprecated in common.xml; some gimbal bridges still send it. ArduPilot
+// (upstream 90700977c5) refuses it (DENIED: "No ap_message for mavlink id (265)"), and a
+// refused stream is not asked for again until the autopilot reboots.
 #[allow(deprecated)]
 /// Telemetry streams requested from the autopilot with MAV_CMD_SET_MESSAGE_INTERVAL, and their
 /// rates (Hz). Position and attitude fast enough that interpolating between samples at a
-/// frame's time is accurate (a drone at 15 m/s moves 30 cm in 20 ms); home rarely changes.
+/// frame's time is accurate (a drone at 15 m/s moves 30 cm in 20 ms); home rarely changes;
+/// SYSTEM_TIME's `time_boot_ms` shows a reboot even while the other streams are still off.
 pub const STREAMS: [(u32, f32); 6] = [
     (GLOBAL_POSITION_INT_DATA::ID, 50.0),
     (ATTITUDE_DATA::ID, 50.0),
@@ -27,6 +29,8 @@ pub enum Severity {
     Warning,
     /// Something came back or changed state normally.
     Info,
+    /// Normal but significant (an object found).
+    Notice,
 }
 
 /// HEARTBEAT of mgmot as an onboard computer component.
@@ -51,6 +55,7 @@ pub fn statustext(severity: Severity, text: &str) -> MavMessage {
         severity: match severity {
             Severity::Warning => MavSeverity::MAV_SEVERITY_WARNING,
             Severity::Info => MavSeverity::MAV_SEVERITY_INFO,
+            Severity::Notice => MavSeverity::MAV_SEVERITY_NOTICE,
         },
         text: text[..end].into(),
         ..Default::default()

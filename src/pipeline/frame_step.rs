@@ -15,9 +15,10 @@ use super::stats::RunStats;
 use super::telemetry::{FramePose, TelemetryState};
 use crate::camera::Frame;
 use crate::config::Settings;
+use crate::digest::{Digest, DigestSettings};
 use crate::frame::{geo_fix, tracker_input, GeoFix};
 use crate::geo::{CameraModel, FrameMetadata, Geolocator, PoseNoise};
-use crate::health::{Condition, ConditionReport};
+use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::Outputs;
 use crate::report::TrackReport;
 use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
@@ -96,7 +97,11 @@ impl FrameStep {
             previous: None,
             last_time_s: None,
             no_pose_reported: false,
-            publisher: TrackPublisher::new(settings.outputs.track_every, outputs.clone()),
+            publisher: TrackPublisher::new(
+                settings.outputs.track_every,
+                settings.outputs.radio_digest,
+                outputs.clone(),
+            ),
             operator,
             outputs,
             latency,
@@ -341,18 +346,22 @@ struct FrameTiming {
 }
 
 /// Rate-limits track reports per track (`outputs.track_rate_hz`); a track that was just
-/// re-identified is reported at once, with the id it had.
+/// re-identified is reported at once, with the id it had. The reports also feed the
+/// STATUSTEXT digest for a ground station behind the autopilot's radio
+/// (`outputs.radio_digest_every_s`).
 struct TrackPublisher {
     period_us: u64,
     last_sent: HashMap<u64, u64>,
+    digest: Option<Digest>,
     outputs: Outputs,
 }
 
 impl TrackPublisher {
-    fn new(period: Duration, outputs: Outputs) -> Self {
+    fn new(period: Duration, digest: Option<DigestSettings>, outputs: Outputs) -> Self {
         Self {
             period_us: u64::try_from(period.as_micros()).unwrap_or(u64::MAX),
             last_sent: HashMap::new(),
+            digest: digest.map(Digest::new),
             outputs,
         }
     }
@@ -391,6 +400,14 @@ impl TrackPublisher {
             let report = TrackReport::new(stamp, t, size, merged_from.get(&t.id).copied(), fix(t));
             self.outputs.track(&report, latency_on_sent(timing));
             sent += 1;
+            if let Some(found) = self.digest.as_mut().and_then(|d| d.observe(&report)) {
+                self.outputs.notice(&Notice::new(Level::Notice, found));
+            }
+        }
+        if let Some(d) = self.digest.as_mut() {
+            for text in d.due(stamp.0) {
+                self.outputs.notice(&Notice::new(Level::Info, text));
+            }
         }
         sent
     }

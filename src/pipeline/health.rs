@@ -15,7 +15,7 @@ const CHECK_EVERY: Duration = Duration::from_millis(500);
 /// Sends a notice to the operator and the log.
 pub(super) fn announce(outputs: &Outputs, notice: &Notice) {
     match notice.level {
-        Level::Info => tracing::info!("{}", notice.text),
+        Level::Info | Level::Notice => tracing::info!("{}", notice.text),
         Level::Warning => tracing::warn!("{}", notice.text),
     }
     outputs.notice(notice);
