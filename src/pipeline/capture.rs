@@ -154,7 +154,8 @@ fn opener(frames: FrameSettings) -> Result<(Opener, Reconnect), PipelineError> {
 /// (the source restarted without a reconnect) starts a new base right after the last one.
 #[derive(Debug, Clone, Copy)]
 struct IndexRebase {
-    base: u64,
+    /// `None`: the source's own first index (the first session keeps the source's numbering).
+    base: Option<u64>,
     first_source: Option<u64>,
     last: Option<u64>,
 }
@@ -162,7 +163,18 @@ struct IndexRebase {
 impl IndexRebase {
     fn new(base: u64) -> Self {
         Self {
-            base,
+            base: Some(base),
+            first_source: None,
+            last: None,
+        }
+    }
+
+    /// The first session: frames keep the source's own indices, so that a frame the source
+    /// numbered `k` is frame `k` (the simulator's frame numbers, which its replayed detections
+    /// are keyed by, even when mgmot connects after the first frames went by).
+    fn keeping_source() -> Self {
+        Self {
+            base: None,
             first_source: None,
             last: None,
         }
@@ -170,16 +182,15 @@ impl IndexRebase {
 
     fn index(&mut self, source: u64) -> u64 {
         let first = *self.first_source.get_or_insert(source);
-        let mapped = source
-            .checked_sub(first)
-            .map(|d| self.base.saturating_add(d));
+        let base = *self.base.get_or_insert(first);
+        let mapped = source.checked_sub(first).map(|d| base.saturating_add(d));
         let mapped = match (mapped, self.last) {
             (Some(m), Some(last)) if m > last => m,
             (Some(m), None) => m,
             // Went back or repeated: a new base right after the last index given.
             (_, last) => {
-                let next = last.map_or(self.base, |l| l.saturating_add(1));
-                self.base = next;
+                let next = last.map_or(base, |l| l.saturating_add(1));
+                self.base = Some(next);
                 self.first_source = Some(source);
                 next
             }
@@ -258,8 +269,13 @@ pub(super) fn capture_loop<S: FrameSource>(
         }
         // Frame indices are the pipeline's, increasing across sessions: a restarted source
         // (a simulator or camera starting again at 0) must not look like frames from the past
-        // to the tracker. Within a session the source's own gaps (dropped frames) are kept.
-        let mut rebase = IndexRebase::new(next_index);
+        // to the tracker. Within a session the source's own gaps (dropped frames) are kept;
+        // until a first frame arrived, the source's own numbering is.
+        let mut rebase = if next_index == 0 {
+            IndexRebase::keeping_source()
+        } else {
+            IndexRebase::new(next_index)
+        };
         let mut source = match open(next_index) {
             Ok(s) => s,
             Err(e) => {
@@ -520,6 +536,11 @@ mod tests {
             .map(|&i| r.index(i))
             .collect();
         assert_eq!(got, [100, 101, 103, 104, 105, 106, 122]);
+
+        // The first session keeps the source's numbering (connected after frame 27 went by).
+        let mut r = IndexRebase::keeping_source();
+        let got: Vec<u64> = [27, 28, 30, 2].iter().map(|&i| r.index(i)).collect();
+        assert_eq!(got, [27, 28, 30, 31]);
     }
 
     #[test]
