@@ -18,7 +18,7 @@ use common::{
     distance_m, free_udp_port, mgmot_run, read_truth, run_config, track_time_ms, Relay, Scenario,
     Sent, TestDir, Truth,
 };
-use mgmot::config::{DetectorConfig, FramesConfig, OnnxDetectorConfig};
+use mgmot::config::{DetectorConfig, FramesConfig, GimbalReport, OnnxDetectorConfig};
 use mgmot::detect::BackendKind;
 use mgmot::mavlink::dialect::{
     MavMessage, MavType, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
@@ -47,6 +47,8 @@ struct Spec {
     /// In real time, as flown (the identity tests), instead of lockstep with
     /// `frames.wait_for_detector` (every frame processed, as fast as the machine goes).
     realtime: bool,
+    /// mgmot's `telemetry.gimbal_report`.
+    gimbal_report: GimbalReport,
 }
 
 struct Outcome {
@@ -71,7 +73,8 @@ impl Outcome {
     }
 }
 
-fn write_config(dir: &TestDir, mgmot_port: u16, detector: Det, realtime: bool) -> PathBuf {
+fn write_config(dir: &TestDir, mgmot_port: u16, spec: &Spec) -> PathBuf {
+    let (detector, realtime) = (spec.detector, spec.realtime);
     let mut c = run_config(
         &format!("udpin:127.0.0.1:{mgmot_port}"),
         &dir.join("frames.sock"),
@@ -84,6 +87,7 @@ fn write_config(dir: &TestDir, mgmot_port: u16, detector: Det, realtime: bool) -
         unreachable!()
     };
     *wait_for_detector = !realtime;
+    c.telemetry.gimbal_report = spec.gimbal_report;
     if detector == Det::Onnx {
         // The fp32 model: tract and ONNX Runtime give the same detections with it (parity test
         // in tests/detect_cli.rs), ONNX Runtime about 3.5x faster, where ORT_DYLIB_PATH names it
@@ -113,7 +117,7 @@ fn run_loopback(spec: &Spec) -> Outcome {
         spec.scenario.detections(&dir.join("dets.json"));
     }
     let mgmot_port = free_udp_port();
-    let config = write_config(&dir, mgmot_port, spec.detector, spec.realtime);
+    let config = write_config(&dir, mgmot_port, spec);
     let tap = Relay::start(mgmot_port);
     let mut sim = spec
         .scenario
@@ -143,10 +147,19 @@ fn run_loopback(spec: &Spec) -> Outcome {
     }
 }
 
-/// Sim time (ms) of the frame a track message describes.
+/// Sim time (ms) of the frame a track message describes. The autopilot's clock restarts at a
+/// reboot (the `ardupilot_servo` scenario's, at [`REBOOT_S`]): a stamp below the clock at the
+/// start is on the rebooted clock.
 fn time_ms(t: &MGMOT_TRACK_DATA) -> i64 {
-    track_time_ms(t.time_usec)
+    if (t.time_usec as f64) < common::BOOT_TIME_S * 1e6 {
+        (REBOOT_S * 1000.0) as i64 + (t.time_usec / 1000) as i64
+    } else {
+        track_time_ms(t.time_usec)
+    }
 }
+
+/// The reboot in the `ardupilot_servo` scenario (its `faults.reboots_s`).
+const REBOOT_S: f64 = 14.0;
 
 /// The truth objects of the frame a geolocated track message describes, nearest first, with
 /// their distance from the message's position.
@@ -294,6 +307,7 @@ fn calm_baseline_tracks_and_geolocation_error() {
         scenario: Scenario::new("calm_baseline", 12.0).size(640, 360),
         detector: Det::Replay,
         realtime: false,
+        gimbal_report: GimbalReport::AsFlagged,
     });
     o.assert_success();
     let errors = geolocation_errors(&o, true);
@@ -342,6 +356,7 @@ fn onnx_detector_on_rendered_frames_calm_baseline() {
         scenario: Scenario::new("calm_baseline", 10.0),
         detector: Det::Onnx,
         realtime: true,
+        gimbal_report: GimbalReport::AsFlagged,
     });
     o.assert_success();
     let heartbeat = o.messages.iter().any(|s| {
@@ -379,6 +394,7 @@ fn ids_survive_gimbal_swings() {
         scenario: Scenario::new("gimbal_swings", 20.0),
         detector: Det::Onnx,
         realtime: true,
+        gimbal_report: GimbalReport::AsFlagged,
     });
     // Known misses: after a swing, an object sometimes comes back under a new id that
     // long-term ReID does not merge. Which object, and whether it happens, depends on which
@@ -400,6 +416,7 @@ fn ids_survive_leave_and_return() {
         scenario: Scenario::new("leave_and_return", 32.0),
         detector: Det::Onnx,
         realtime: true,
+        gimbal_report: GimbalReport::AsFlagged,
     });
     assert_ids_survive(&o, 3, 0);
 }
@@ -415,7 +432,16 @@ fn sigterm_stops_cleanly() {
     // No detections: this test is about stopping.
     dir.empty_detections();
     let mgmot_port = free_udp_port();
-    let config = write_config(&dir, mgmot_port, Det::Replay, false);
+    let config = write_config(
+        &dir,
+        mgmot_port,
+        &Spec {
+            scenario: scenario.clone(),
+            detector: Det::Replay,
+            realtime: false,
+            gimbal_report: GimbalReport::AsFlagged,
+        },
+    );
     let tap = Relay::start(mgmot_port);
     let sim = scenario
         .run(false, tap.listen_port, &dir.join("frames.sock"))
@@ -434,4 +460,67 @@ fn sigterm_stops_cleanly() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();
     assert!(stats["frames_captured"].as_u64().is_some(), "{stats}");
+}
+
+/// ArduCopter's habits (the `ardupilot_servo` scenario; issue "On a real autopilot", mismatches
+/// 2-6): no stream until asked for, MOUNT_ORIENTATION refused, a reboot at 14 s that forgets
+/// the streams and restarts the clock, a ground station answering every TIMESYNC request with
+/// its own clock, and a servo gimbal reporting body-frame angles while the drone leans in
+/// fast flight and turns. With `telemetry.gimbal_report = "servo_body_frame"` mgmot geolocates
+/// before and after the reboot within the calm baseline's error; read as flagged, the same
+/// flight is metres off. In real time: the link's stream requests, reboot detection and
+/// silence are a matter of wall-clock time, which lockstep does not keep.
+#[test]
+fn ardupilot_habits_servo_gimbal_reboot_and_gcs_timesync() {
+    let run = |gimbal_report| {
+        run_loopback(&Spec {
+            scenario: Scenario::new("ardupilot_servo", 36.0).size(640, 360),
+            detector: Det::Replay,
+            realtime: true,
+            gimbal_report,
+        })
+    };
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::INFINITY)
+    };
+    let body = run(GimbalReport::ServoBodyFrame);
+    body.assert_success();
+    let geolocated: Vec<i64> = body
+        .tracks()
+        .filter(|t| geo_valid(t))
+        .map(time_ms)
+        .collect();
+    let reboot_ms = (REBOOT_S * 1000.0) as i64;
+    let before = geolocated.iter().filter(|&&t| t < reboot_ms).count();
+    let after = geolocated
+        .iter()
+        .filter(|&&t| t > reboot_ms + 3_000)
+        .count();
+    assert!(
+        before >= 8 && after >= 8,
+        "geolocated tracks before / after the reboot: {before} / {after}; mgmot said: {}",
+        body.stderr
+    );
+    let mut errors = geolocation_errors(&body, true);
+    errors.sort_by(f64::total_cmp);
+    // The tail is the turns (60 deg/s at 12 m/s, the gimbal's report interpolated between
+    // 50 Hz samples) and the first frames after the reboot.
+    let p95 = errors[(errors.len() * 95 / 100).min(errors.len() - 1)];
+    let m_body = errors[errors.len() / 2];
+    assert!(
+        m_body < 1.0 && p95 < 6.0,
+        "median {m_body:.2} m, p95 {p95:.2} m; errors {errors:?}"
+    );
+    let flagged = run(GimbalReport::AsFlagged);
+    flagged.assert_success();
+    let m_flagged = median(geolocation_errors(&flagged, true));
+    assert!(
+        m_flagged > 2.0 * m_body && m_flagged > 1.0,
+        "median error read as flagged {m_flagged:.2} m vs servo body frame {m_body:.2} m"
+    );
+    eprintln!(
+        "servo body frame: median {m_body:.2} m, p95 {p95:.2} m, {} geolocated; as flagged: median {m_flagged:.2} m",
+        errors.len()
+    );
 }

@@ -1,0 +1,207 @@
+#!/usr/bin/env python3
+"""The ground station of the SITL bench (scripts/bench_sitl.sh): flies ArduCopter SITL and taps
+what reaches the ground in both topologies.
+
+- Radio tap: a TCP connection to SITL's SERIAL0 (the telemetry radio). It flies the vehicle
+  (GUIDED, arm, take off, a there-and-back search leg over the scenario's objects, gimbal sweeps
+  with DO_MOUNT_CONTROL), selects a track with MAV_CMD_CAMERA_TRACK_POINT sent to mgmot through
+  the autopilot, asks for SIMSTATE (SITL's true state), and records everything it receives.
+- Router tap: a UDP port the companion router (mavlink-router) sends to: a ground station with a
+  direct path to mgmot. It only listens.
+
+Both are decoded with mgmot's dialect (firmware-config/mavlink/mgmot.xml: common + ardupilotmega
++ MGMOT_TRACK) and written as tlogs (8-byte big-endian UNIX microseconds + the raw packet). A
+JSON summary goes to --out.
+
+Usage: bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out DIR [--leg-m 200]
+"""
+import argparse
+import json
+import math
+import os
+import select
+import socket
+import struct
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from runtime_mavlink_tap import load_dialect  # noqa: E402
+
+GCS = (255, 190)
+MGMOT = (1, 191)
+
+
+class Tap:
+    """One connection: parses, counts and records what arrives."""
+
+    def __init__(self, dialect, name, sock, tlog_path, send=None):
+        self.name, self.sock, self.send_raw = name, sock, send
+        self.mav = dialect.MAVLink(self, srcSystem=GCS[0], srcComponent=GCS[1])
+        self.mav.robust_parsing = True
+        self.tlog = open(tlog_path, "wb")
+        self.counts, self.first, self.last, self.by_sender = {}, {}, {}, {}
+        self.messages = []
+
+    def write(self, data):  # the MAVLink object's output
+        if self.send_raw:
+            self.send_raw(data)
+
+    def feed(self, data):
+        now = time.time()
+        for m in self.mav.parse_buffer(data) or []:
+            t = m.get_type()
+            if t == "BAD_DATA":
+                continue
+            self.tlog.write(struct.pack(">Q", int(now * 1e6)) + m.get_msgbuf())
+            self.counts[t] = self.counts.get(t, 0) + 1
+            self.first.setdefault(t, now)
+            self.last[t] = now
+            key = "%s %d/%d" % (t, m.get_srcSystem(), m.get_srcComponent())
+            self.by_sender[key] = self.by_sender.get(key, 0) + 1
+            self.messages.append((now, m))
+
+    def rates(self, since):
+        out = {}
+        for t, n in sorted(self.counts.items()):
+            recent = [x for x, m in self.messages if m.get_type() == t and x >= since]
+            span = (recent[-1] - recent[0]) if len(recent) > 1 else 0.0
+            out[t] = {"count": n, "rate_hz": round((len(recent) - 1) / span, 2) if span > 0 else None}
+        return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sitl-port", type=int, default=5760)
+    ap.add_argument("--router-port", type=int, default=14550)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--altitude-m", type=float, default=30.0)
+    ap.add_argument("--leg-m", type=float, default=200.0, help="length of the search leg north of home")
+    ap.add_argument("--speed-mps", type=float, default=5.0)
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    dialect = load_dialect()
+
+    radio_sock = None
+    for _ in range(120):
+        try:
+            radio_sock = socket.create_connection(("127.0.0.1", args.sitl_port), timeout=2)
+            break
+        except OSError:
+            time.sleep(0.5)
+    if radio_sock is None:
+        sys.exit("bench: SITL's SERIAL0 (tcp %d) did not open" % args.sitl_port)
+    radio = Tap(dialect, "radio", radio_sock, os.path.join(args.out, "gcs_radio.tlog"), radio_sock.sendall)
+    router_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    router_sock.bind(("127.0.0.1", args.router_port))
+    router = Tap(dialect, "router", router_sock, os.path.join(args.out, "gcs_router.tlog"))
+    m = radio.mav
+    state = {"phase": "wait_gps", "t0": time.time(), "phase_t": time.time(), "events": []}
+
+    def log(text):
+        state["events"].append([round(time.time() - state["t0"], 1), text])
+        print("bench: %5.1f s  %s" % (time.time() - state["t0"], text), flush=True)
+
+    def pump(seconds):
+        end = time.time() + seconds
+        while time.time() < end:
+            r, _, _ = select.select([radio_sock, router_sock], [], [], max(0.0, min(0.1, end - time.time())))
+            if radio_sock in r:
+                data = radio_sock.recv(65536)
+                if not data:
+                    sys.exit("bench: SITL closed the radio connection")
+                radio.feed(data)
+            if router_sock in r:
+                router.feed(router_sock.recv(65536))
+
+    def command(cmd, *params, target=(1, 1)):
+        p = list(params) + [0] * (7 - len(params))
+        m.command_long_send(target[0], target[1], cmd, 0, *p)
+
+    def latest(t):
+        for when, msg in reversed(radio.messages):
+            if msg.get_type() == t:
+                return msg
+        return None
+
+    def goto(north_m, east_m):
+        home = state["home"]
+        lat = home[0] + north_m / 111320.0
+        lon = home[1] + east_m / (111320.0 * math.cos(math.radians(home[0])))
+        m.set_position_target_global_int_send(
+            0, 1, 1, dialect.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0b0000111111111000,
+            int(lat * 1e7), int(lon * 1e7), args.altitude_m, 0, 0, 0, 0, 0, 0, 0, 0)
+
+    def gimbal(pitch_deg, yaw_deg):
+        # DO_MOUNT_CONTROL: pitch, roll, yaw (deg), mode MAVLINK_TARGETING.
+        command(dialect.MAV_CMD_DO_MOUNT_CONTROL, pitch_deg, 0, yaw_deg, 0, 0, 0, dialect.MAV_MOUNT_MODE_MAVLINK_TARGETING)
+
+    # Streams for the ground station: position, attitude, SITL's true state, gimbal, home.
+    pump(2)
+    for msg_id, hz in [(33, 10), (30, 10), (164, 10), (285, 10), (242, 1), (24, 2), (253, 0)]:
+        if hz:
+            command(dialect.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
+        pump(0.2)
+    # The bench does not calibrate sensors or set up an RC transmitter.
+    m.param_set_send(1, 1, b"ARMING_CHECK", 0, dialect.MAV_PARAM_TYPE_INT32)
+    pump(1)
+    log("waiting for a GPS fix and the EKF")
+    while True:
+        pump(1)
+        gps = latest("GPS_RAW_INT")
+        pos = latest("GLOBAL_POSITION_INT")
+        if gps is not None and gps.fix_type >= 3 and pos is not None and pos.lat != 0 and time.time() - state["t0"] > 25:
+            break
+        if time.time() - state["t0"] > 180:
+            sys.exit("bench: no GPS fix in 180 s")
+    pos = latest("GLOBAL_POSITION_INT")
+    state["home"] = (pos.lat * 1e-7, pos.lon * 1e-7)
+    log("GPS fix; home %.6f, %.6f" % state["home"])
+    m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4)  # GUIDED
+    pump(1)
+    for attempt in range(20):
+        command(dialect.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        pump(1.5)
+        hb = latest("HEARTBEAT")
+        if hb is not None and hb.base_mode & dialect.MAV_MODE_FLAG_SAFETY_ARMED:
+            break
+    else:
+        sys.exit("bench: the vehicle did not arm")
+    log("armed; taking off to %.0f m" % args.altitude_m)
+    command(dialect.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, args.altitude_m)
+    while (latest("GLOBAL_POSITION_INT").relative_alt / 1000.0) < args.altitude_m - 1.5:
+        pump(0.5)
+    gimbal(-60, 0)
+    command(dialect.MAV_CMD_DO_CHANGE_SPEED, 1, args.speed_mps, -1)
+    log("search leg north, gimbal -60 forward")
+    goto(args.leg_m, 0)
+    leg_s = args.leg_m / args.speed_mps
+    pump(leg_s * 0.5)
+    log("operator selects the track at the image centre (MAV_CMD_CAMERA_TRACK_POINT to mgmot via the radio)")
+    command(dialect.MAV_CMD_CAMERA_TRACK_POINT, 0.5, 0.5, 0.2, target=MGMOT)
+    pump(leg_s * 0.5 + 5)
+    log("back south with gimbal sweeps")
+    goto(0, 0)
+    back_start = time.time()
+    k = 0
+    while time.time() - back_start < leg_s + 5:
+        gimbal(-50 - 10 * (k % 2), [-30, 0, 30, 0][k % 4])
+        k += 1
+        pump(4)
+    command(dialect.MAV_CMD_CAMERA_STOP_TRACKING, target=MGMOT)
+    log("landing")
+    m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND
+    pump(5)
+    summary = {
+        "events": state["events"],
+        "home": state["home"],
+        "radio": {"by_sender": radio.by_sender},
+        "router": {"by_sender": router.by_sender},
+    }
+    with open(os.path.join(args.out, "gcs_summary.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+    log("done")
+
+
+if __name__ == "__main__":
+    main()
