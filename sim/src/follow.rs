@@ -22,7 +22,7 @@ pub const KEEP_US: u64 = 5_000_000;
 /// telemetry gap): the pose there is unknown (µs).
 pub const MAX_GAP_US: u64 = 1_000_000;
 
-/// A time up to this far outside a stream's samples takes the nearest sample (µs): frames are
+/// A time up to this far after a stream's newest sample takes that sample (µs): frames are
 /// rendered slightly in the past (the capture latency), but a late message must not blank
 /// the video.
 pub const MAX_HOLD_US: u64 = 250_000;
@@ -241,8 +241,9 @@ impl<T: Lerp> Series<T> {
                 Some(a.lerp(b, f))
             }
             (Some((ta, a)), None) => (t_us - ta <= MAX_HOLD_US).then_some(*a),
-            (None, Some((tb, b))) => (tb - t_us <= MAX_HOLD_US).then_some(*b),
-            (None, None) => None,
+            // Before the first sample nothing is known (e.g. a frame captured just before the
+            // telemetry started).
+            (None, _) => None,
         }
     }
 
@@ -535,7 +536,7 @@ mod tests {
             140.0
         );
         assert!(b.position_at(1_100_001 + MAX_HOLD_US).is_none());
-        assert!(b.position_at(1_000_000 - MAX_HOLD_US - 1).is_none());
+        assert!(b.position_at(999_999).is_none());
         // A late message is inserted in order.
         b.push_position(1_020_000, fix(47.0, 9.0, 200.0));
         assert_eq!(b.position_at(1_020_000).unwrap().alt_amsl_m, 200.0);
