@@ -5,6 +5,7 @@
 #![warn(missing_docs)]
 
 pub mod detections;
+pub mod follow;
 pub mod framing;
 pub mod monitor;
 pub mod motion;

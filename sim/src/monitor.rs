@@ -139,6 +139,16 @@ impl TrackMonitor {
 
     /// Checks one message against the truth of the instant it describes.
     pub fn observe(&mut self, world: &World, m: &MGMOT_TRACK_DATA) -> TrackCheck {
+        // time_usec is the frame's stamp on the autopilot clock, which includes the camera's
+        // clock offset fault; the truth is at the true capture time.
+        let t_s = m.time_usec as f64 / 1e6 - self.boot_time_s - self.camera_offset_s;
+        self.observe_at(world, m, t_s)
+    }
+
+    /// Checks one message against the truth at scenario time `t_s`, for callers that map the
+    /// message's `time_usec` to scenario time themselves (`mgmot-sim follow`, whose autopilot
+    /// clock is a real autopilot's).
+    pub fn observe_at(&mut self, world: &World, m: &MGMOT_TRACK_DATA, t_s: f64) -> TrackCheck {
         self.messages += 1;
         self.track_ids.insert(m.track_id);
         if m.flags.contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED)
@@ -147,7 +157,7 @@ impl TrackMonitor {
         {
             self.merged_into.insert(m.merged_from_id, m.track_id);
         }
-        let check = self.check(world, m);
+        let check = self.check(world, m, t_s);
         match check {
             TrackCheck::NoGeolocation => self.without_geolocation += 1,
             TrackCheck::OutOfScenario => self.out_of_scenario += 1,
@@ -181,16 +191,13 @@ impl TrackMonitor {
         check
     }
 
-    fn check(&self, world: &World, m: &MGMOT_TRACK_DATA) -> TrackCheck {
+    fn check(&self, world: &World, m: &MGMOT_TRACK_DATA, t_s: f64) -> TrackCheck {
         if !m
             .flags
             .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID)
         {
             return TrackCheck::NoGeolocation;
         }
-        // time_usec is the frame's stamp on the autopilot clock, which includes the camera's
-        // clock offset fault; the truth is at the true capture time.
-        let t_s = m.time_usec as f64 / 1e6 - self.boot_time_s - self.camera_offset_s;
         if !(t_s.is_finite() && t_s >= 0.0 && t_s <= world.scenario.duration_s + 1.0) {
             return TrackCheck::OutOfScenario;
         }

@@ -4,7 +4,6 @@
 
 use crate::truth::{FrameTruth, Optics};
 use crate::world::{Reported, World};
-use mgmot_core::geo::attitude::camera_from_heading_pitch_deg;
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -67,16 +66,17 @@ pub fn world_csv_lines(ft: &FrameTruth, optics: &Optics) -> String {
     s
 }
 
-/// Camera-pose CSV line of one frame (the true pose).
-pub fn camera_csv_line(ft: &FrameTruth, world: &World, optics: &Optics) -> String {
+/// Camera-pose CSV line of one frame (the true pose; the quaternion is the pose's attitude,
+/// heading and pitch those of its optical axis, the timestamp the frame's).
+pub fn camera_csv_line(ft: &FrameTruth, optics: &Optics) -> String {
     let d = &ft.drone;
     let g = optics.frame.to_geodetic(&Vector3::from(d.pos_ned_m));
-    let q = camera_from_heading_pitch_deg(d.cam_heading_deg, d.cam_pitch_deg, 0.0);
+    let q = ft.pose.attitude;
     format!(
         "{},{:.4},{},{:.8},{:.8},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.9},{:.9},{:.9},{:.9},{:.3},{:.3},{:.3}\n",
         ft.index + 1,
         ft.t_s,
-        world.frame_stamp_us(ft.t_s),
+        ft.stamp_us,
         g.lat_deg,
         g.lon_deg,
         g.alt_m,
@@ -283,7 +283,7 @@ impl SeaDronesSee {
     /// and one annotation per ground-truth box.
     pub fn add_frame(&mut self, world: &World, optics: &Optics, ft: &FrameTruth, file_name: &str) {
         let s = &world.scenario;
-        let rep: Reported = world.frame_metadata(ft.t_s);
+        let rep: Reported = ft.reported;
         let g = optics.frame.to_geodetic(&Vector3::from(rep.pos_ned_m));
         let image_id = ft.index + 1;
         let unix = s.origin.start_unix_s + ft.t_s;

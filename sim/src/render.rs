@@ -130,8 +130,22 @@ impl Renderer {
         rgb: &mut [u8],
         with_objects: bool,
     ) {
-        let state = world.truth(t_s);
-        let pose = optics.pose(&state);
+        let pose = optics.pose(&world.truth(t_s));
+        self.render_pose(world, optics, &pose, t_s, rgb, with_objects);
+    }
+
+    /// Renders the world at time `t_s` seen from `pose` (instead of the scenario's own
+    /// flight: `mgmot-sim follow`) into `rgb`.
+    pub fn render_pose(
+        &self,
+        world: &World,
+        optics: &Optics,
+        pose: &CameraPose,
+        t_s: f64,
+        rgb: &mut [u8],
+        with_objects: bool,
+    ) {
+        let pose = *pose;
         self.render_sea(optics, &pose, t_s, rgb);
         if with_objects {
             let mut objects = world.objects_at(t_s);

@@ -85,6 +85,10 @@ pub struct FrameTruth {
     pub drone: DroneState,
     /// True camera pose.
     pub pose: CameraPose,
+    /// The frame's timestamp on the autopilot clock (µs since its boot).
+    pub stamp_us: u64,
+    /// What the drone reported for this frame (the SeaDronesSee `meta`).
+    pub reported: DroneState,
     /// Visible objects, in id order.
     pub boxes: Vec<TruthBox>,
 }
@@ -152,11 +156,30 @@ pub fn project_object(optics: &Optics, pose: &CameraPose, o: &ObjectState) -> Op
     })
 }
 
-/// The ground truth of frame `index`.
+/// The ground truth of frame `index` of the scenario's own flight.
 pub fn frame_truth(world: &World, optics: &Optics, index: u64) -> FrameTruth {
     let t_s = world.frame_time_s(index);
     let drone = world.truth(t_s);
     let pose = optics.pose(&drone);
+    let mut ft = frame_truth_posed(world, optics, index, t_s, drone, pose);
+    ft.stamp_us = world.frame_stamp_us(t_s);
+    ft.reported = world.frame_metadata(t_s);
+    ft
+}
+
+/// The ground truth of a frame taken at scenario time `t_s` from a pose that does not come
+/// from the scenario's flight (`mgmot-sim follow`: the pose a real autopilot reported;
+/// `drone` is the same pose in the truth's terms). The stamp is the world's clock at `t_s`
+/// and the reported state the pose itself; callers with a clock of their own set
+/// `stamp_us`.
+pub fn frame_truth_posed(
+    world: &World,
+    optics: &Optics,
+    index: u64,
+    t_s: f64,
+    drone: DroneState,
+    pose: CameraPose,
+) -> FrameTruth {
     let boxes = world
         .objects_at(t_s)
         .iter()
@@ -167,6 +190,8 @@ pub fn frame_truth(world: &World, optics: &Optics, index: u64) -> FrameTruth {
         t_s,
         drone,
         pose,
+        stamp_us: world.autopilot_time_us(t_s),
+        reported: drone,
         boxes,
     }
 }

@@ -1,6 +1,7 @@
 //! Subcommands of `mgmot-sim`, each in its own file with an `Args` struct and a `run`.
 
 mod detections;
+mod follow;
 mod frames;
 #[cfg(feature = "v4l2")]
 mod frames_v4l2;
@@ -27,6 +28,8 @@ use std::process::ExitCode;
 ///   render      write an image sequence plus ground truth (MOT gt.txt, world/camera CSV,
 ///               SeaDronesSee-style JSON)
 ///   detections  write simulated detections (COCO results JSON or MOT txt) plus ground truth
+///   follow      frames only, for a real autopilot (ArduPilot SITL): render the scenario's
+///               world around its home from the camera pose it reports, check mgmot's tracks
 ///   list        list the shipped scenarios
 #[derive(Debug, Parser)]
 #[command(name = "mgmot-sim", version, verbatim_doc_comment)]
@@ -48,6 +51,9 @@ enum Command {
     Render(render::Args),
     /// Simulate a detector: detections derived from the ground truth, plus the ground truth.
     Detections(detections::Args),
+    /// Frames only, for a real autopilot: render the scenario's world from the camera pose
+    /// the autopilot reports.
+    Follow(follow::Args),
 }
 
 /// Options shared by every mode that runs a scenario.
@@ -105,6 +111,7 @@ pub fn main() -> ExitCode {
         Command::Run(a) => run::run(a),
         Command::Render(a) => render::run(a),
         Command::Detections(a) => detections::run(a),
+        Command::Follow(a) => follow::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

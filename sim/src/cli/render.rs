@@ -87,7 +87,7 @@ impl TruthWriter {
         self.world_csv
             .write_all(output::world_csv_lines(ft, optics).as_bytes())?;
         self.camera_csv
-            .write_all(output::camera_csv_line(ft, world, optics).as_bytes())?;
+            .write_all(output::camera_csv_line(ft, optics).as_bytes())?;
         self.sds.add_frame(world, optics, ft, file_name);
         self.frames += 1;
         Ok(())
