@@ -13,12 +13,14 @@
 //! - [`clock`]: the companion's monotonic clock, read at the edges only.
 //! - [`config`]: the runtime's TOML configuration, validated into typed settings.
 //! - [`pipeline`]: the onboard runtime's wiring: capture, one frame's step, outputs.
+//! - [`firmware`]: autopilot parameter files checked against parameter metadata tables.
 #![warn(missing_docs)]
 
 pub mod camera;
 pub mod clock;
 pub mod config;
 pub mod detect;
+pub mod firmware;
 pub mod formats;
 pub mod logging;
 pub mod mavlink;

@@ -8,6 +8,7 @@ mod args;
 mod check_config;
 mod detect;
 mod eval;
+mod firmware_check;
 mod geolocate;
 mod run;
 mod stdout;
@@ -36,6 +37,8 @@ enum Command {
     Detect(detect::Args),
     /// Check a runtime configuration file.
     CheckConfig(check_config::Args),
+    /// Check autopilot parameter files against parameter metadata.
+    FirmwareCheck(firmware_check::Args),
     /// Run the onboard pipeline (MAVLink, frames, detector, tracker, track messages).
     Run(run::Args),
 }
@@ -50,6 +53,7 @@ pub fn main() -> ExitCode {
         Command::Track(args) => track::run(args),
         Command::Detect(args) => detect::run(args),
         Command::CheckConfig(args) => check_config::run(args),
+        Command::FirmwareCheck(args) => firmware_check::run(args),
         Command::Run(args) => run::run(args),
     };
     match result {
