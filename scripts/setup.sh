@@ -11,6 +11,9 @@ command -v cargo >/dev/null 2>&1 || {
 command -v cc >/dev/null 2>&1 || need_apt+=(build-essential)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-pip python3-venv)
 command -v pkg-config >/dev/null 2>&1 || need_apt+=(pkg-config)
+# scripts/check_unit.sh (systemd-analyze) and the installer test (objcopy, strip).
+command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
+command -v objcopy >/dev/null 2>&1 || need_apt+=(binutils)
 # bindgen (used by the v4l crate) needs libclang.
 compgen -G "/usr/lib/llvm-*/lib/libclang.so*" >/dev/null || compgen -G "/usr/lib/*-linux-gnu/libclang.so*" >/dev/null || need_apt+=(libclang-dev)
 

@@ -39,6 +39,8 @@ echo "== cargo fmt --check"
 cargo fmt --all --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== systemd unit: systemd-analyze verify, security exposure <= 2.0"
+bash scripts/check_unit.sh
 echo "== cargo test (release)"
 # Release mode, on top of the demo's build when it ran first (as in CI): the dependencies'
 # features are the same with the dev-dependencies (see Cargo.toml), so only the tests are

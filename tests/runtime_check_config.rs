@@ -15,7 +15,7 @@ fn example_config_is_ok() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(stdout.contains(": ok"), "{stdout}");
-    assert!(stdout.contains("udpin:0.0.0.0:14550"), "{stdout}");
+    assert!(stdout.contains("udpin:127.0.0.1:14551"), "{stdout}");
 }
 
 #[test]

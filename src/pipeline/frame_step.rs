@@ -9,6 +9,7 @@ use super::detector::Detector;
 use super::health::announce;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
+use super::service::ServiceNotifier;
 use super::shutdown::Shutdown;
 use super::slot::{SlotReader, Taken};
 use super::stats::RunStats;
@@ -60,6 +61,8 @@ pub(super) struct FrameStep {
     latency: Arc<Mutex<Latency>>,
     stats: RunStats,
     first_taken: Option<Instant>,
+    /// systemd's READY / WATCHDOG / STATUS notifications (a no-op outside systemd).
+    service: ServiceNotifier,
 }
 
 /// The stage boundaries of one frame, for the latency histograms.
@@ -107,6 +110,7 @@ impl FrameStep {
             latency,
             stats: RunStats::default(),
             first_taken: None,
+            service: ServiceNotifier::from_env(settings.telemetry.lost_after),
         }
     }
 
@@ -121,7 +125,9 @@ impl FrameStep {
                 Taken::Timeout => self.operator.answer_requests(),
                 Taken::Closed => break,
             }
+            self.service.tick(&self.telemetry);
         }
+        self.service.stopping();
         self.stats.frames_dropped = reader.dropped();
         self.stats
     }
@@ -156,6 +162,7 @@ impl FrameStep {
         };
         let tracked = Instant::now();
         self.stats.frames_processed += 1;
+        self.service.frame_processed(output.tracks.len());
         // The next frame's motion compensation starts from the frame the tracker just took.
         self.previous = pose.meta.as_ref().ok().map(|m| (index, *m));
         self.publish(&output, size, &pose, at, camera_ned);

@@ -4,7 +4,7 @@
 //! Frame sources: V4L2, an image directory or the simulator's socket ([`crate::camera`]);
 //! detector: the ONNX model or the replay of the simulator's detections (bench); per-stage
 //! latency histograms in the logs ([`latency`]); operator-selected tracking (`operator_link`, on
-//! the core's `operator`).
+//! the core's `operator`); systemd's READY / WATCHDOG / STATUS notifications (`service`).
 
 mod capture;
 mod detector;
@@ -14,6 +14,7 @@ mod health;
 pub mod latency;
 mod operator_link;
 mod run;
+mod service;
 mod shutdown;
 mod slot;
 mod stats;
