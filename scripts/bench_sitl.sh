@@ -123,11 +123,14 @@ target/release/mgmot-sim follow -s calm_baseline --mavlink udpin:127.0.0.1:14552
   --truth-out "$out/truth" --track-report "$out/track_report.json" > "$out/follow.log" 2>&1 &
 follow=$!
 pids+=($follow)
-target/release/mgmot run --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
+target/release/mgmot run -v --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
 mgmot=$!
 pids+=($mgmot)
 
-wait "$fly"
+fly_rc=0
+wait "$fly" || fly_rc=$?
+if [ "$fly_rc" -ne 0 ]; then echo "bench: the flight script failed (exit $fly_rc); reporting what was recorded" >&2; fi
 kill -INT "$mgmot" "$follow" 2>/dev/null || true
 wait "$mgmot" "$follow" 2>/dev/null || true
 .venv/bin/python3 scripts/bench_sitl_report.py "$out"
+exit "$fly_rc"

@@ -118,9 +118,12 @@ def main():
         p = list(params) + [0] * (7 - len(params))
         m.command_long_send(target[0], target[1], cmd, 0, *p)
 
-    def latest(t):
+    def latest(t, since=0.0):
+        """The autopilot's latest message of type `t` (received after `since`)."""
         for when, msg in reversed(radio.messages):
-            if msg.get_type() == t:
+            if when < since:
+                break
+            if msg.get_type() == t and (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 1):
                 return msg
         return None
 
@@ -159,11 +162,14 @@ def main():
     log("GPS fix; home %.6f, %.6f" % state["home"])
     m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4)  # GUIDED
     pump(1)
-    for attempt in range(20):
+    # Until the EKF has a position estimate the autopilot refuses ("Arm: Need Position
+    # Estimate"): ask again until COMMAND_ACK says ACCEPTED.
+    for attempt in range(60):
+        asked = time.time()
         command(dialect.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         pump(1.5)
-        hb = latest("HEARTBEAT")
-        if hb is not None and hb.base_mode & dialect.MAV_MODE_FLAG_SAFETY_ARMED:
+        ack = latest("COMMAND_ACK", asked)
+        if ack is not None and ack.command == dialect.MAV_CMD_COMPONENT_ARM_DISARM and ack.result == 0:
             break
     else:
         sys.exit("bench: the vehicle did not arm")
@@ -177,9 +183,27 @@ def main():
     goto(args.leg_m, 0)
     leg_s = args.leg_m / args.speed_mps
     pump(leg_s * 0.5)
-    log("operator selects the track at the image centre (MAV_CMD_CAMERA_TRACK_POINT to mgmot via the radio)")
-    command(dialect.MAV_CMD_CAMERA_TRACK_POINT, 0.5, 0.5, 0.2, target=MGMOT)
-    pump(leg_s * 0.5 + 5)
+    # The operator clicks on a track: its box is taken from the router tap's latest MGMOT_TRACK
+    # (as a ground station showing the video would), the command goes through the radio, i.e.
+    # through the autopilot, which routes it to mgmot's component.
+    selected_at = None
+    select_end = time.time() + leg_s * 0.5 + 5
+    while time.time() < select_end:
+        if selected_at is None:
+            tracks = [(w, x) for w, x in router.messages[-400:] if x.get_type() == "MGMOT_TRACK" and w > time.time() - 1.0]
+            if tracks:
+                t = tracks[-1][1]
+                asked = time.time()
+                command(dialect.MAV_CMD_CAMERA_TRACK_POINT, t.bbox_x + t.bbox_w / 2, t.bbox_y + t.bbox_h / 2, 0.02, target=MGMOT)
+                pump(1.0)
+                ack = [x for w, x in radio.messages if w >= asked and x.get_type() == "COMMAND_ACK"
+                       and (x.get_srcSystem(), x.get_srcComponent()) == MGMOT]
+                result = ack[-1].result if ack else None
+                log("operator clicks on track #%d (MAV_CMD_CAMERA_TRACK_POINT via the radio): COMMAND_ACK %s" % (t.track_id, result))
+                if result == 0:
+                    selected_at = time.time()
+                continue
+        pump(1.0)
     log("back south with gimbal sweeps")
     goto(0, 0)
     back_start = time.time()

@@ -89,7 +89,7 @@ def main():
         if m.get_type() == "COMMAND_ACK" and m.command == dialect.MAV_CMD_SET_MESSAGE_INTERVAL:
             key = "to %d/%d: %s" % (m.target_system, m.target_component, dialect.enums["MAV_RESULT"][m.result].name)
             acks[key] = acks.get(key, 0) + 1
-    print("   SET_MESSAGE_INTERVAL answers: %s" % acks)
+    print("   SET_MESSAGE_INTERVAL answers seen by the GCS: %s (the router delivers an answer only to its requester: mgmot's are in its stats below, `stream_requests`)" % acks)
     report["interval_acks"] = acks
 
     print("\n-- 2. TIMESYNC (router tap)")
@@ -99,6 +99,7 @@ def main():
     offsets = [(m.tc1 - m.ts1) / 1e9 for _, m in matched]
     rtts = [(t - requests[m.ts1]) * 1e3 for t, m in matched]
     others = [m for _, m in router if m.get_type() == "TIMESYNC" and m.tc1 != 0 and sender(m) not in (AUTOPILOT, MGMOT)]
+    print("   (requests and answers are addressed: the router delivers them only between mgmot and the autopilot, so a GCS-side tap sees them only without a router)")
     print("   requests from mgmot %d, answered by the autopilot %d; offset autopilot - mgmot clock: median %.4f s (spread %.4f s); round trip at the tap median %.1f ms, p95 %.1f ms; answers from others %d"
           % (len(requests), len(matched), statistics.median(offsets) if offsets else float("nan"),
              (max(offsets) - min(offsets)) if offsets else float("nan"), pct(rtts, 0.5), pct(rtts, 0.95), len(others)))
@@ -165,7 +166,19 @@ def main():
         print("   %-36s %s" % (name, counts))
         for x in texts:
             print("      STATUSTEXT: %s" % x)
+        geo = [m for _, m in log if sender(m) == MGMOT and m.get_type() == "CAMERA_TRACKING_GEO_STATUS" and m.tracking_status != 0]
+        if geo:
+            m = geo[len(geo) // 2]
+            print("      CAMERA_TRACKING_GEO_STATUS active: %d, e.g. lat %.6f lon %.6f h_acc %.1f m dist %.0f m"
+                  % (len(geo), m.lat * 1e-7, m.lon * 1e-7, m.h_acc, m.dist))
         report["at_" + name.split()[0]] = counts
+    log = os.path.join(out, "mgmot.log")
+    if os.path.exists(log):
+        import re
+        plain = re.sub(r"\x1b\[[0-9;]*m", "", open(log, errors="replace").read())
+        for line in plain.splitlines():
+            if "refused a stream" in line or "autopilot back" in line:
+                print("   mgmot log: " + line[line.find(" ", 30) + 1:][:160])
     stats = os.path.join(out, "mgmot_stats.json")
     if os.path.exists(stats):
         s = json.load(open(stats))

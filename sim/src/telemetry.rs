@@ -491,6 +491,16 @@ mod tests {
         camera_from_gimbal_quaternion, camera_from_heading_pitch_deg, GimbalYawFrame,
     };
 
+    /// The gimbal attitude a GIMBAL_DEVICE_ATTITUDE_STATUS carries.
+    fn sent_quaternion(g: &GIMBAL_DEVICE_ATTITUDE_STATUS_DATA) -> UnitQuaternion<f64> {
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            f64::from(g.q[0]),
+            f64::from(g.q[1]),
+            f64::from(g.q[2]),
+            f64::from(g.q[3]),
+        ))
+    }
+
     fn world(name: &str) -> World {
         let s = Scenario::load(name).unwrap();
         let seed = s.seed;
@@ -545,12 +555,7 @@ mod tests {
             else {
                 panic!()
             };
-            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                f64::from(g.q[0]),
-                f64::from(g.q[1]),
-                f64::from(g.q[2]),
-                f64::from(g.q[3]),
-            ));
+            let q = sent_quaternion(&g);
             let truth = w.truth(t);
             let vehicle = UnitQuaternion::from_euler_angles(
                 truth.roll_deg.to_radians(),
@@ -587,12 +592,7 @@ mod tests {
                 panic!()
             };
             assert_eq!(g.gimbal_device_id, 1);
-            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                f64::from(g.q[0]),
-                f64::from(g.q[1]),
-                f64::from(g.q[2]),
-                f64::from(g.q[3]),
-            ));
+            let q = sent_quaternion(&g);
             let truth = w.truth(t);
             let vehicle = UnitQuaternion::from_euler_angles(
                 truth.roll_deg.to_radians(),

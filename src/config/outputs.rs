@@ -95,7 +95,7 @@ impl OutputsConfig {
                 every,
             )
             .map(|every| {
-                (every > 0.0).then(|| DigestSettings {
+                (every > 0.0).then_some(DigestSettings {
                     every_us: (every * 1e6) as u64,
                     max_positions: self.radio_digest_positions,
                 })
