@@ -182,27 +182,31 @@ def main():
     log("search leg north, gimbal -60 forward")
     goto(args.leg_m, 0)
     leg_s = args.leg_m / args.speed_mps
-    pump(leg_s * 0.5)
-    # The operator clicks on a track: its box is taken from the router tap's latest MGMOT_TRACK
-    # (as a ground station showing the video would), the command goes through the radio, i.e.
-    # through the autopilot, which routes it to mgmot's component.
-    selected_at = None
-    select_end = time.time() + leg_s * 0.5 + 5
-    while time.time() < select_end:
-        if selected_at is None:
-            tracks = [(w, x) for w, x in router.messages[-400:] if x.get_type() == "MGMOT_TRACK" and w > time.time() - 1.0]
-            if tracks:
-                t = tracks[-1][1]
-                asked = time.time()
-                command(dialect.MAV_CMD_CAMERA_TRACK_POINT, t.bbox_x + t.bbox_w / 2, t.bbox_y + t.bbox_h / 2, 0.02, target=MGMOT)
-                pump(1.0)
-                ack = [x for w, x in radio.messages if w >= asked and x.get_type() == "COMMAND_ACK"
-                       and (x.get_srcSystem(), x.get_srcComponent()) == MGMOT]
-                result = ack[-1].result if ack else None
-                log("operator clicks on track #%d (MAV_CMD_CAMERA_TRACK_POINT via the radio): COMMAND_ACK %s" % (t.track_id, result))
-                if result == 0:
-                    selected_at = time.time()
-                continue
+    # The operator clicks on a track as soon as one shows: its box is taken from the router
+    # tap's latest MGMOT_TRACK (as a ground station showing the video would), the command goes
+    # through the radio, i.e. through the autopilot, which routes it to mgmot's component.
+    selected = {"at": None}
+
+    def try_select():
+        if selected["at"] is not None:
+            return
+        tracks = [x for w, x in router.messages[-600:] if x.get_type() == "MGMOT_TRACK" and w > time.time() - 1.0]
+        if not tracks:
+            return
+        t = tracks[-1]
+        asked = time.time()
+        command(dialect.MAV_CMD_CAMERA_TRACK_POINT, t.bbox_x + t.bbox_w / 2, t.bbox_y + t.bbox_h / 2, 0.02, target=MGMOT)
+        pump(1.0)
+        ack = [x for w, x in radio.messages if w >= asked and x.get_type() == "COMMAND_ACK"
+               and (x.get_srcSystem(), x.get_srcComponent()) == MGMOT]
+        result = ack[-1].result if ack else None
+        log("operator clicks on track #%d (MAV_CMD_CAMERA_TRACK_POINT via the radio): COMMAND_ACK %s" % (t.track_id, result))
+        if result == 0:
+            selected["at"] = time.time()
+
+    leg_end = time.time() + leg_s + 5
+    while time.time() < leg_end:
+        try_select()
         pump(1.0)
     log("back south with gimbal sweeps")
     goto(0, 0)
@@ -211,7 +215,9 @@ def main():
     while time.time() - back_start < leg_s + 5:
         gimbal(-50 - 10 * (k % 2), [-30, 0, 30, 0][k % 4])
         k += 1
-        pump(4)
+        for _ in range(4):
+            try_select()
+            pump(1.0)
     command(dialect.MAV_CMD_CAMERA_STOP_TRACKING, target=MGMOT)
     log("landing")
     m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND

@@ -10,16 +10,17 @@ use mavlink_core::MessageData;
 // refused stream is not asked for again until the autopilot reboots.
 #[allow(deprecated)]
 /// Telemetry streams requested from the autopilot with MAV_CMD_SET_MESSAGE_INTERVAL, and their
-/// rates (Hz). Position and attitude fast enough that interpolating between samples at a
-/// frame's time is accurate (a drone at 15 m/s moves 30 cm in 20 ms); home rarely changes;
-/// SYSTEM_TIME's `time_boot_ms` shows a reboot even while the other streams are still off.
-pub const STREAMS: [(u32, f32); 6] = [
-    (GLOBAL_POSITION_INT_DATA::ID, 50.0),
-    (ATTITUDE_DATA::ID, 50.0),
-    (GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID, 50.0),
-    (MOUNT_ORIENTATION_DATA::ID, 50.0),
-    (HOME_POSITION_DATA::ID, 0.2),
-    (SYSTEM_TIME_DATA::ID, 1.0),
+/// rates (Hz); `None`: the pose streams, at `mavlink.stream_rate_hz` (50 Hz by default: fast
+/// enough that interpolating between samples at a frame's time is accurate; a drone at 15 m/s
+/// moves 30 cm in 20 ms). Home rarely changes; SYSTEM_TIME's `time_boot_ms` shows a reboot
+/// even while the other streams are still off, once a second is enough for that.
+pub const STREAMS: [(u32, Option<f32>); 6] = [
+    (GLOBAL_POSITION_INT_DATA::ID, None),
+    (ATTITUDE_DATA::ID, None),
+    (GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID, None),
+    (MOUNT_ORIENTATION_DATA::ID, None),
+    (HOME_POSITION_DATA::ID, Some(0.2)),
+    (SYSTEM_TIME_DATA::ID, Some(1.0)),
 ];
 
 /// STATUSTEXT severities mgmot uses.

@@ -212,7 +212,7 @@ fn link_settings(m: &MavlinkSettings) -> LinkSettings {
     let streams = if m.stream_rate_hz > 0.0 {
         link::STREAMS
             .iter()
-            .map(|&(id, rate)| (id, if rate >= 1.0 { m.stream_rate_hz } else { rate }))
+            .map(|&(id, rate)| (id, rate.unwrap_or(m.stream_rate_hz)))
             .collect()
     } else {
         Vec::new()
