@@ -95,6 +95,26 @@ pub struct MonitorSummary {
     pub objects: Vec<ObjectIds>,
 }
 
+impl MonitorSummary {
+    /// One log line about the MGMOT_TRACK messages checked so far (`run` and `follow`).
+    pub fn log(&self, what: &str) {
+        let m = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.2}"));
+        tracing::info!(
+            messages = self.messages,
+            track_ids = self.track_ids,
+            matched = self.matched,
+            false_tracks = self.false_tracks,
+            wrong_class = self.wrong_class,
+            without_geolocation = self.without_geolocation,
+            out_of_scenario = self.out_of_scenario,
+            error_median_m = %m(self.error_median_m),
+            error_p95_m = %m(self.error_p95_m),
+            error_max_m = %m(self.error_max_m),
+            "{what}"
+        );
+    }
+}
+
 /// The mgmot track ids one true object was reported under.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ObjectIds {

@@ -23,7 +23,7 @@ use mgmot_sim::follow::{
     ClockSync, GimbalFix, GimbalReport, PoseBuffer, PositionFix,
 };
 use mgmot_sim::framing::FrameHeader;
-use mgmot_sim::monitor::{MonitorSummary, TrackMonitor};
+use mgmot_sim::monitor::TrackMonitor;
 use mgmot_sim::render::Renderer;
 use mgmot_sim::truth::{frame_truth_posed, Optics};
 use mgmot_sim::world::World;
@@ -420,7 +420,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "following"
             );
             if monitor.messages() > 0 {
-                log_tracks(&monitor.summary(), "mgmot tracks so far");
+                monitor.summary().log("mgmot tracks so far");
             }
         }
     }
@@ -451,7 +451,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let (Some((_, monitor)), Some(start)) = (placed.as_mut(), render_start) {
         check_tracks(&shared, &world, monitor, start)?;
         let summary = monitor.summary();
-        log_tracks(&summary, "mgmot tracks");
+        summary.log("mgmot tracks");
         if let Some(path) = &args.track_report {
             let json = serde_json::to_string_pretty(&summary)?;
             std::fs::write(path, json + "\n")
@@ -500,24 +500,6 @@ fn check_tracks(
         tracing::debug!(track = m.track_id, t_s, check = ?check, "mgmot track");
     }
     Ok(())
-}
-
-/// One log line about the MGMOT_TRACK messages checked so far.
-fn log_tracks(s: &MonitorSummary, what: &str) {
-    let m = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.2}"));
-    tracing::info!(
-        messages = s.messages,
-        track_ids = s.track_ids,
-        matched = s.matched,
-        false_tracks = s.false_tracks,
-        wrong_class = s.wrong_class,
-        without_geolocation = s.without_geolocation,
-        out_of_scenario = s.out_of_scenario,
-        error_median_m = %m(s.error_median_m),
-        error_p95_m = %m(s.error_p95_m),
-        error_max_m = %m(s.error_max_m),
-        "{what}"
-    );
 }
 
 fn header(seq: &AtomicU8) -> MavHeader {

@@ -7,7 +7,7 @@ use super::render::TruthWriter;
 use super::ScenarioArgs;
 use anyhow::Context;
 use mgmot_sim::framing::FrameHeader;
-use mgmot_sim::monitor::{MonitorSummary, TrackMonitor};
+use mgmot_sim::monitor::TrackMonitor;
 use mgmot_sim::render::Renderer;
 use mgmot_sim::telemetry::{Autopilot, Scheduler};
 use mgmot_sim::truth::{frame_truth, Optics};
@@ -174,7 +174,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if last_report.0.elapsed() >= REPORT_EVERY {
             if let Ok(mon) = monitor.lock() {
                 if mon.messages() > last_report.1 {
-                    log_tracks(&mon.summary(), "mgmot tracks so far");
+                    mon.summary().log("mgmot tracks so far");
                 }
                 last_report = (Instant::now(), mon.messages());
             }
@@ -206,7 +206,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .lock()
             .map_err(|_| anyhow::anyhow!("track monitor poisoned"))?
             .summary();
-        log_tracks(&summary, "mgmot tracks");
+        summary.log("mgmot tracks");
         for o in &summary.objects {
             tracing::info!(
                 object = o.object_id,
@@ -223,21 +223,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// One log line about the MGMOT_TRACK messages checked so far.
-fn log_tracks(s: &MonitorSummary, what: &str) {
-    let m = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.2}"));
-    tracing::info!(
-        messages = s.messages,
-        track_ids = s.track_ids,
-        matched = s.matched,
-        false_tracks = s.false_tracks,
-        wrong_class = s.wrong_class,
-        without_geolocation = s.without_geolocation,
-        error_median_m = %m(s.error_median_m),
-        error_p95_m = %m(s.error_p95_m),
-        error_max_m = %m(s.error_max_m),
-        "{what}"
-    );
 }
