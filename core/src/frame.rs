@@ -5,10 +5,16 @@
 //!   the tracker's [`FrameInput`]: each box geolocated on the sea surface (paper Sec. 3.2's
 //!   `X^2D`), and the sea-plane homography from the previous frame for camera-motion
 //!   compensation.
+//! - [`InputBuilder`]: [`tracker_input`] for consecutive frames, with what it remembers from
+//!   one frame to the next (the local frame, set at the first pose; the previous frame's pose;
+//!   the tracker's clock, forced monotonic). The live runtime and `mgmot replay` both build
+//!   their inputs with it, which is why a replay reproduces the flight exactly.
 //! - [`geo_fix`]: a track's world state (local NED) -> latitude/longitude on the sea surface,
 //!   with velocity and its horizontal uncertainty, as the outputs report it.
 
-use crate::geo::{FrameGeometry, Geodetic, LocalTangentFrame};
+use crate::geo::{
+    CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator, LocalTangentFrame, PoseNoise,
+};
 use crate::track::{Detection, FrameInput, WorldObservation, WorldState};
 use nalgebra::Vector3;
 
@@ -41,6 +47,103 @@ pub fn tracker_input(
         image_size_px,
         detections,
         image_motion,
+    }
+}
+
+/// How [`InputBuilder`] geolocates: the camera's horizontal field of view, the pose noise and
+/// the longest range a box is geolocated at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeoSettings {
+    /// Horizontal field of view (deg).
+    pub hfov_deg: f64,
+    /// Pose noise, for the observations' covariance.
+    pub noise: PoseNoise,
+    /// Boxes further than this (m) are not geolocated.
+    pub max_range_m: f64,
+}
+
+/// Builds the tracker's inputs of consecutive frames, remembering what the next frame needs:
+/// the geolocator (its local frame is the nadir point of the first frame with a pose), the
+/// pose of the last frame the tracker took (motion compensation only between consecutive
+/// frame indices) and the tracker's clock (forced monotonic: a source that restarted
+/// continues just after the last frame's time).
+#[derive(Debug, Clone)]
+pub struct InputBuilder {
+    geo: GeoSettings,
+    geolocator: Option<Geolocator>,
+    previous: Option<(u64, FrameMetadata)>,
+    last_time_s: Option<f64>,
+}
+
+impl InputBuilder {
+    /// Nothing seen yet.
+    pub fn new(geo: GeoSettings) -> Self {
+        Self {
+            geo,
+            geolocator: None,
+            previous: None,
+            last_time_s: None,
+        }
+    }
+
+    /// The geolocator, once a frame had a pose.
+    pub fn geolocator(&self) -> Option<&Geolocator> {
+        self.geolocator.as_ref()
+    }
+
+    /// One frame's input: `time_s` is the frame's time on the tracker's clock (made monotonic
+    /// here), `meta` its pose when it has one. Also returns the camera's position in the local
+    /// frame. Call [`InputBuilder::taken`] once the tracker accepted the input. An empty image
+    /// (no camera model) is tracked in the image only.
+    pub fn build(
+        &mut self,
+        index: u64,
+        time_s: f64,
+        size: (u32, u32),
+        detections: impl IntoIterator<Item = Detection>,
+        meta: Option<&FrameMetadata>,
+    ) -> (FrameInput, Option<Vector3<f64>>) {
+        let time_s = match self.last_time_s {
+            Some(last) if time_s < last => last + 1e-3,
+            _ => time_s,
+        };
+        self.last_time_s = Some(time_s);
+        if let (None, Some(m)) = (&self.geolocator, meta) {
+            // A camera model fails only for an empty image: that frame is tracked in the image.
+            self.geolocator = CameraModel::from_hfov(size.0, size.1, self.geo.hfov_deg)
+                .ok()
+                .map(|camera| {
+                    Geolocator::new(m.nadir_on_water(), camera, self.geo.noise)
+                        .with_max_range_m(self.geo.max_range_m)
+                });
+        }
+        let Some(g) = &self.geolocator else {
+            return (
+                tracker_input(index, time_s, size, detections, None, None),
+                None,
+            );
+        };
+        let geometry = meta.and_then(|m| g.frame(m).ok());
+        let previous_geometry = match &self.previous {
+            Some((prev, m)) if prev + 1 == index => g.frame(m).ok(),
+            _ => None,
+        };
+        let input = tracker_input(
+            index,
+            time_s,
+            size,
+            detections,
+            geometry.as_ref(),
+            previous_geometry.as_ref(),
+        );
+        let camera_ned = geometry.map(|g| g.pose_in_reference().position_ned);
+        (input, camera_ned)
+    }
+
+    /// The tracker took frame `index` (with its pose, if any): the next frame's motion
+    /// compensation starts from it.
+    pub fn taken(&mut self, index: u64, meta: Option<&FrameMetadata>) {
+        self.previous = meta.map(|m| (index, *m));
     }
 }
 
@@ -131,6 +234,36 @@ mod tests {
         let first = tracker_input(0, 0.0, (1280, 720), dets, Some(&f0), None);
         assert!(first.image_motion.is_none());
         assert!(first.detections.iter().all(|d| d.world.is_some()));
+    }
+
+    #[test]
+    fn the_builder_sets_the_local_frame_at_the_first_pose_and_keeps_its_clock_monotonic() {
+        let geo = GeoSettings {
+            hfov_deg: 60.0,
+            noise: PoseNoise::default(),
+            max_range_m: 1000.0,
+        };
+        let mut b = InputBuilder::new(geo);
+        let dets = [detection(100.0)];
+        let (no_pose, cam) = b.build(0, 10.0, (1280, 720), dets, None);
+        assert!(no_pose.detections[0].world.is_none() && cam.is_none());
+        assert!(b.geolocator().is_none());
+        b.taken(0, None);
+        let (first, cam) = b.build(1, 10.1, (1280, 720), dets, Some(&meta(5.0)));
+        let reference = b.geolocator().map(|g| g.reference().origin());
+        assert_eq!(reference, Some(meta(5.0).nadir_on_water()));
+        assert!(first.detections[0].world.is_some() && first.image_motion.is_none());
+        assert!(cam.is_some_and(|c| c.x.abs() < 1e-6));
+        b.taken(1, Some(&meta(5.0)));
+        // Consecutive: motion compensated; the clock going back continues after the last time.
+        let (second, _) = b.build(2, 3.0, (1280, 720), dets, Some(&meta(6.0)));
+        assert!(second.image_motion.is_some());
+        assert!((second.time_s - 10.101).abs() < 1e-9);
+        b.taken(2, Some(&meta(6.0)));
+        // A gap in the indices: no motion compensation across it.
+        let (after_gap, _) = b.build(4, 10.3, (1280, 720), dets, Some(&meta(7.0)));
+        assert!(after_gap.image_motion.is_none());
+        assert_eq!(after_gap.time_s, 10.3);
     }
 
     #[test]

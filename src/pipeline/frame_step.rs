@@ -17,8 +17,7 @@ use super::telemetry::{FramePose, TelemetryState};
 use crate::camera::Frame;
 use crate::config::Settings;
 use crate::digest::{Digest, DigestSettings};
-use crate::frame::{geo_fix, tracker_input, GeoFix};
-use crate::geo::{CameraModel, FrameMetadata, Geolocator, PoseNoise};
+use crate::frame::{geo_fix, GeoFix, GeoSettings, InputBuilder};
 use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::Outputs;
 use crate::report::TrackReport;
@@ -32,27 +31,15 @@ use std::time::{Duration, Instant};
 /// How long the frame step waits for a frame before answering operator requests anyway.
 const TAKE_TIMEOUT: Duration = Duration::from_millis(100);
 
-/// The camera and geolocation settings the step needs from the configuration.
-#[derive(Debug, Clone, Copy)]
-struct GeoSettings {
-    hfov_deg: f64,
-    noise: PoseNoise,
-    max_range_m: f64,
-}
-
 /// Everything one frame's processing needs, and what it remembers from frame to frame.
 pub(super) struct FrameStep {
     detector: Box<dyn Detector>,
     detector_health: ConditionReport,
     tracker: Tracker,
     telemetry: Arc<Mutex<TelemetryState>>,
-    geo: GeoSettings,
-    /// Set up at the first frame with a pose: its nadir point is the local frame's origin.
-    geolocator: Option<Geolocator>,
-    /// The previous frame's index and metadata (for camera-motion compensation).
-    previous: Option<(u64, FrameMetadata)>,
-    /// The tracker's clock, forced monotonic.
-    last_time_s: Option<f64>,
+    /// The tracker's inputs: the local frame (set at the first pose), the previous frame's
+    /// pose and the tracker's clock.
+    inputs: InputBuilder,
     /// "No pose" is logged once per spell.
     no_pose_reported: bool,
     publisher: TrackPublisher,
@@ -91,14 +78,7 @@ impl FrameStep {
             detector_health: ConditionReport::new(Condition::Detector),
             tracker,
             telemetry,
-            geo: GeoSettings {
-                hfov_deg: settings.camera.hfov_deg,
-                noise: settings.geolocation.noise,
-                max_range_m: settings.geolocation.max_range_m,
-            },
-            geolocator: None,
-            previous: None,
-            last_time_s: None,
+            inputs: InputBuilder::new(geo_settings(settings)),
             no_pose_reported: false,
             publisher: TrackPublisher::new(
                 settings.outputs.track_every,
@@ -164,7 +144,7 @@ impl FrameStep {
         self.stats.frames_processed += 1;
         self.service.frame_processed(output.tracks.len());
         // The next frame's motion compensation starts from the frame the tracker just took.
-        self.previous = pose.meta.as_ref().ok().map(|m| (index, *m));
+        self.inputs.taken(index, pose.meta.as_ref().ok());
         self.publish(&output, size, &pose, at, camera_ned);
         self.record_latency(
             &pose,
@@ -232,49 +212,9 @@ impl FrameStep {
         detections: Vec<Detection>,
         pose: &FramePose,
     ) -> (FrameInput, Option<Vector3<f64>>) {
-        // The tracker's clock only goes forward: a source that restarted (its clock from 0
-        // again, a new session) continues just after the last frame's time.
-        let raw_time_s = pose
-            .frame_time
-            .map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6);
-        let time_s = match self.last_time_s {
-            Some(last) if raw_time_s < last => last + 1e-3,
-            _ => raw_time_s,
-        };
-        self.last_time_s = Some(time_s);
-        let meta = pose.meta.as_ref().ok();
-        if let (None, Some(m)) = (&self.geolocator, meta) {
-            match CameraModel::from_hfov(size.0, size.1, self.geo.hfov_deg) {
-                Ok(camera) => {
-                    self.geolocator = Some(
-                        Geolocator::new(m.nadir_on_water(), camera, self.geo.noise)
-                            .with_max_range_m(self.geo.max_range_m),
-                    )
-                }
-                Err(e) => tracing::warn!(error = %e, "camera model"),
-            }
-        }
-        let Some(g) = &self.geolocator else {
-            return (
-                tracker_input(index, time_s, size, detections, None, None),
-                None,
-            );
-        };
-        let geometry = meta.and_then(|m| g.frame(m).ok());
-        let previous_geometry = match &self.previous {
-            Some((prev, m)) if prev + 1 == index => g.frame(m).ok(),
-            _ => None,
-        };
-        let input = tracker_input(
-            index,
-            time_s,
-            size,
-            detections,
-            geometry.as_ref(),
-            previous_geometry.as_ref(),
-        );
-        let camera_ned = geometry.map(|g| g.pose_in_reference().position_ned);
-        (input, camera_ned)
+        let time_s = frame_time_s(index, pose.frame_time);
+        self.inputs
+            .build(index, time_s, size, detections, pose.meta.as_ref().ok())
     }
 
     /// The due track reports and the operator's selected track.
@@ -288,7 +228,7 @@ impl FrameStep {
     ) {
         // Without a pose this frame, the outputs say "geolocation invalid" rather than repeat
         // an old position.
-        let geolocator = self.geolocator.as_ref().filter(|_| pose.meta.is_ok());
+        let geolocator = self.inputs.geolocator().filter(|_| pose.meta.is_ok());
         let fix = |t: &TrackOutput| -> Option<GeoFix> {
             Some(geo_fix(
                 geolocator?.reference(),
@@ -341,6 +281,21 @@ impl FrameStep {
             .first_taken
             .map_or(0, |f| (done - f).as_micros() as u64);
     }
+}
+
+/// The geolocation settings of the tracker's inputs, from the configuration.
+pub(crate) fn geo_settings(settings: &Settings) -> GeoSettings {
+    GeoSettings {
+        hfov_deg: settings.camera.hfov_deg,
+        noise: settings.geolocation.noise,
+        max_range_m: settings.geolocation.max_range_m,
+    }
+}
+
+/// A frame's time on the tracker's clock (s): its exposure on the autopilot clock, or, before
+/// the clock mapping is known, its index at 30 fps.
+fn frame_time_s(index: u64, frame_time: Option<AutopilotTimeUs>) -> f64 {
+    frame_time.map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6)
 }
 
 /// Companion times of a frame, for the latency histograms of its track messages.
