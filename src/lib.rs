@@ -25,5 +25,6 @@ pub mod formats;
 pub mod logging;
 pub mod mavlink;
 pub mod pipeline;
+pub mod record;
 
 pub use mgmot_core::{digest, eval, frame, geo, health, operator, report, telemetry, track};

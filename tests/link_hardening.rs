@@ -37,6 +37,7 @@ fn settings(connection: String) -> LinkSettings {
         streams: Vec::new(),
         timesync_hz: 0.0,
         accept_unsigned_telemetry: true,
+        tap: None,
     }
 }
 

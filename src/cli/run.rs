@@ -24,7 +24,9 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // The configuration is validated into typed settings once, before anything starts.
-    let (_config, settings) = Config::load(&args.config)?;
+    let (config, settings) = Config::load(&args.config)?;
+    // The configuration as it takes effect (defaults filled in), for the flight record.
+    let effective = toml::to_string(&config).context("serialising the configuration")?;
     // Opened (and emptied, so no stale stats survive a failed run) before the run starts: an
     // unwritable path is an error now, not after a flight.
     let mut stats_file = args
@@ -62,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             trigger.fire();
         });
-        let stats = pipeline::run(settings, shutdown).await?;
+        let stats = pipeline::run(settings, &effective, shutdown).await?;
         signals.abort();
         eprintln!(
             "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} detector errors, {} track messages",

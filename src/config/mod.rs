@@ -17,6 +17,7 @@ mod geolocation;
 mod mavlink;
 mod outputs;
 mod problems;
+mod recording;
 mod telemetry;
 #[cfg(test)]
 mod tests;
@@ -28,6 +29,7 @@ pub use geolocation::{GeolocationConfig, GeolocationSettings, DEFAULT_MAX_RANGE_
 pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings};
 pub use outputs::{OutputSettings, OutputsConfig};
 pub use problems::{Problem, Problems};
+pub use recording::{RecordingConfig, RecordingSettings};
 pub use telemetry::{GimbalReport, TelemetryConfig, TelemetrySettings};
 
 use crate::track::TrackerParams;
@@ -85,6 +87,9 @@ pub struct Config {
     /// What is sent, and how often.
     #[serde(default)]
     pub outputs: OutputsConfig,
+    /// The flight record (off unless `recording.dir` is set).
+    #[serde(default)]
+    pub recording: RecordingConfig,
     /// Tracker parameters (the paper's values by default).
     #[serde(default)]
     pub tracker: TrackerParams,
@@ -107,6 +112,8 @@ pub struct Settings {
     pub geolocation: GeolocationSettings,
     /// Outputs and their periods.
     pub outputs: OutputSettings,
+    /// The flight record; `None`: off.
+    pub recording: Option<RecordingSettings>,
     /// Tracker parameters (checked by [`TrackerParams::validate`]).
     pub tracker: TrackerParams,
 }
@@ -136,7 +143,7 @@ impl Config {
 
     /// The typed settings, or every problem with the values, each naming its dotted key (in
     /// the order of the sections: mavlink, telemetry, frames, detector, camera, geolocation,
-    /// outputs, tracker).
+    /// outputs, recording, tracker).
     pub fn validate(&self) -> Result<Settings, Vec<Problem>> {
         let mut problems = Problems::default();
         let p = &mut problems;
@@ -147,6 +154,7 @@ impl Config {
         let camera = self.camera.validate(p);
         let geolocation = self.geolocation.validate(p);
         let outputs = self.outputs.validate(p);
+        let recording = self.recording.validate(p);
         if let Err(e) = self.tracker.validate() {
             p.push("tracker", e.to_string());
         }
@@ -158,6 +166,7 @@ impl Config {
             camera,
             geolocation,
             outputs,
+            recording,
         ) {
             (
                 Some(mavlink),
@@ -167,6 +176,7 @@ impl Config {
                 Some(camera),
                 Some(geolocation),
                 Some(outputs),
+                Some(recording),
             ) if problems.is_empty() => Ok(Settings {
                 mavlink,
                 telemetry,
@@ -175,6 +185,7 @@ impl Config {
                 detector,
                 geolocation,
                 outputs,
+                recording,
                 tracker: self.tracker.clone(),
             }),
             _ => Err(problems.into_vec()),

@@ -21,7 +21,9 @@ pub use encode::{
     heartbeat, message_interval_request, mgmot_track, statustext, target_absolute,
     timesync_request, AckResult, Severity, STREAMS,
 };
-pub use link::{Link, LinkEvent, LinkSender, LinkSettings, LinkStats, Received, SigningSettings};
+pub use link::{
+    Link, LinkEvent, LinkSender, LinkSettings, LinkStats, PacketTap, Received, SigningSettings,
+};
 pub use signing::{is_signed, parse_raw, signing_config};
 
 /// Our component id: MAV_COMP_ID_ONBOARD_COMPUTER.

@@ -9,6 +9,7 @@ use super::detector::Detector;
 use super::health::announce;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
+use super::recording::FrameRecording;
 use super::service::ServiceNotifier;
 use super::shutdown::Shutdown;
 use super::slot::{SlotReader, Taken};
@@ -18,6 +19,7 @@ use crate::camera::Frame;
 use crate::config::Settings;
 use crate::digest::{Digest, DigestSettings};
 use crate::frame::{geo_fix, GeoFix, GeoSettings, InputBuilder};
+use crate::geo::Geolocator;
 use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::Outputs;
 use crate::report::TrackReport;
@@ -50,6 +52,10 @@ pub(super) struct FrameStep {
     first_taken: Option<Instant>,
     /// systemd's READY / WATCHDOG / STATUS notifications (a no-op outside systemd).
     service: ServiceNotifier,
+    /// The flight record, when `[recording]` is on.
+    recording: Option<FrameRecording>,
+    /// Frames the slot dropped so far (for the record).
+    frames_dropped: u64,
 }
 
 /// The stage boundaries of one frame, for the latency histograms.
@@ -63,7 +69,9 @@ struct Marks {
 }
 
 impl FrameStep {
-    /// A step with its detector, tracker, the shared telemetry and the outputs.
+    /// A step with its detector, tracker, the shared telemetry, the outputs and the flight
+    /// record (if on).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         settings: &Settings,
         detector: Box<dyn Detector>,
@@ -72,6 +80,7 @@ impl FrameStep {
         operator: OperatorLink,
         outputs: Outputs,
         latency: Arc<Mutex<Latency>>,
+        recording: Option<FrameRecording>,
     ) -> Self {
         Self {
             detector,
@@ -91,6 +100,8 @@ impl FrameStep {
             stats: RunStats::default(),
             first_taken: None,
             service: ServiceNotifier::from_env(settings.telemetry.lost_after),
+            recording,
+            frames_dropped: 0,
         }
     }
 
@@ -100,7 +111,10 @@ impl FrameStep {
         while !shutdown.is_shutdown() {
             window.log_if_due(&self.latency, &self.stats, reader.dropped());
             match reader.take(TAKE_TIMEOUT) {
-                Taken::Value(d) => self.process(d),
+                Taken::Value(d) => {
+                    self.frames_dropped = reader.dropped();
+                    self.process(d);
+                }
                 // No frame: requests are still answered, against the last frame's tracks.
                 Taken::Timeout => self.operator.answer_requests(),
                 Taken::Closed => break,
@@ -122,6 +136,7 @@ impl FrameStep {
             frame.captured,
             (frame.width_px, frame.height_px),
         );
+        let keyframe = self.recording.as_mut().and_then(|r| r.keyframe(&frame));
         let Some(detections) = self.detect(frame) else {
             return;
         };
@@ -146,6 +161,11 @@ impl FrameStep {
         // The next frame's motion compensation starts from the frame the tracker just took.
         self.inputs.taken(index, pose.meta.as_ref().ok());
         self.publish(&output, size, &pose, at, camera_ned);
+        if let Some(r) = &mut self.recording {
+            let geolocator = self.inputs.geolocator();
+            let fix = |t: &TrackOutput| fix_of(geolocator, &pose, t);
+            r.record(&input, &output, &pose, &fix, self.frames_dropped, keyframe);
+        }
         self.record_latency(
             &pose,
             Marks {
@@ -226,16 +246,8 @@ impl FrameStep {
         delivered: CompanionTimeUs,
         camera_ned: Option<Vector3<f64>>,
     ) {
-        // Without a pose this frame, the outputs say "geolocation invalid" rather than repeat
-        // an old position.
-        let geolocator = self.inputs.geolocator().filter(|_| pose.meta.is_ok());
-        let fix = |t: &TrackOutput| -> Option<GeoFix> {
-            Some(geo_fix(
-                geolocator?.reference(),
-                t.world.as_ref()?,
-                pose.water_amsl_m,
-            ))
-        };
+        let geolocator = self.inputs.geolocator();
+        let fix = |t: &TrackOutput| fix_of(geolocator, pose, t);
         let timing = FrameTiming {
             captured: pose.captured_at,
             delivered,
@@ -281,6 +293,13 @@ impl FrameStep {
             .first_taken
             .map_or(0, |f| (done - f).as_micros() as u64);
     }
+}
+
+/// Where a track is on the map, as reported: without a pose this frame, the outputs say
+/// "geolocation invalid" rather than repeat an old position.
+fn fix_of(geolocator: Option<&Geolocator>, pose: &FramePose, t: &TrackOutput) -> Option<GeoFix> {
+    let g = geolocator.filter(|_| pose.meta.is_ok())?;
+    Some(geo_fix(g.reference(), t.world.as_ref()?, pose.water_amsl_m))
 }
 
 /// The geolocation settings of the tracker's inputs, from the configuration.

@@ -13,6 +13,7 @@ mod frame_step;
 mod health;
 pub mod latency;
 mod operator_link;
+mod recording;
 mod run;
 mod service;
 mod shutdown;

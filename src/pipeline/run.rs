@@ -11,6 +11,7 @@ use super::frame_step::FrameStep;
 use super::health::{announce, heartbeat_and_telemetry_watch};
 use super::latency::Latency;
 use super::operator_link::OperatorLink;
+use super::recording::{self, FrameRecording};
 use super::shutdown::{shutdown_signal, Shutdown, Trigger};
 use super::slot::newest_slot;
 use super::stats::RunStats;
@@ -22,7 +23,7 @@ use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, OperatorReque
 use crate::mavlink::{Outputs, SigningSettings};
 use crate::track::Tracker;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 use tokio::task::JoinSet;
 
@@ -35,7 +36,12 @@ const REQUEST_QUEUE: usize = 8;
 const CAPTURE_JOIN_TIMEOUT: Duration = Duration::from_secs(1);
 
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
-pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, PipelineError> {
+/// `effective_config` is the configuration as TOML, for the flight record (`[recording]`).
+pub async fn run(
+    settings: Settings,
+    effective_config: &str,
+    shutdown: Shutdown,
+) -> Result<RunStats, PipelineError> {
     // Everything that can fail is set up before anything starts: nothing leaks on an error.
     let detector: Box<dyn Detector> = match &settings.detector {
         DetectorSettings::Replay {
@@ -46,10 +52,24 @@ pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, Pip
     };
     let tracker = Tracker::new(settings.tracker.clone())
         .map_err(|e| PipelineError::Tracker(e.to_string()))?;
-    let (link, inbox, outputs) = link::bridge::start(
-        link_settings(&settings.mavlink),
-        settings.outputs.target_absolute,
-    )?;
+    let announce_to = Arc::new(OnceLock::new());
+    let recorder = settings
+        .recording
+        .as_ref()
+        .and_then(|r| recording::start(&settings, r, effective_config, announce_to.clone()));
+    let mut link_settings = link_settings(&settings.mavlink);
+    link_settings.tap = recorder.as_ref().map(|r| recording::packet_tap(r.sink()));
+    let (link, inbox, outputs) =
+        match link::bridge::start(link_settings, settings.outputs.target_absolute) {
+            Ok(l) => l,
+            Err(e) => {
+                if let Some(r) = recorder {
+                    r.finish(None);
+                }
+                return Err(e.into());
+            }
+        };
+    let _ = announce_to.set(outputs.clone());
     // The tasks and threads below stop on `stop`: the caller's shutdown, or the source's end.
     let (stop_trigger, stop) = shutdown_signal();
     let stop_trigger = Arc::new(stop_trigger);
@@ -97,6 +117,10 @@ pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, Pip
             settings.outputs.camera_tracking_every,
             outputs.clone(),
         );
+        let frame_recording = recorder
+            .as_ref()
+            .zip(settings.recording.as_ref())
+            .map(|(r, s)| FrameRecording::new(r.sink(), s));
         let step = FrameStep::new(
             &settings,
             detector,
@@ -105,6 +129,7 @@ pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, Pip
             operator,
             outputs.clone(),
             latency.clone(),
+            frame_recording,
         );
         let stop = stop.clone();
         std::thread::Builder::new()
@@ -138,11 +163,30 @@ pub async fn run(settings: Settings, shutdown: Shutdown) -> Result<RunStats, Pip
     forward.abort();
     let dropped = outputs.dropped();
     drop(outputs);
+    drop(announce_to);
     let link_stats = link.close().await;
     tracing::info!(?link_stats, "MAVLink link closed");
-    let mut stats = result?;
-    stats.messages_dropped = dropped;
-    stats.link = link_stats;
+    let result = result.map(|mut stats| {
+        stats.messages_dropped = dropped;
+        stats.link = link_stats;
+        stats
+    });
+    // The record closes last, with what the link sent while closing and the run's counters.
+    if let Some(r) = recorder {
+        let counters = result
+            .as_ref()
+            .ok()
+            .and_then(|s| serde_json::to_value(s).ok());
+        let dir = r.dir().to_owned();
+        let end = tokio::task::spawn_blocking(move || r.finish(counters))
+            .await
+            .ok()
+            .flatten();
+        if let Some(end) = end {
+            tracing::info!(dir = %dir.display(), frames = end.frames_written, "flight recorded");
+        }
+    }
+    let stats = result?;
     tracing::info!(
         latency = %stats.latency.to_log_line(),
         "latency over the whole run (p50/p95/p99/max)"
@@ -234,5 +278,6 @@ fn link_settings(m: &MavlinkSettings) -> LinkSettings {
             .signing
             .as_ref()
             .is_none_or(|s| s.accept_unsigned_telemetry),
+        tap: None,
     }
 }

@@ -118,6 +118,19 @@ pub struct LinkSettings {
     /// autopilot are still used (an autopilot or router that does not sign). Commands must be
     /// signed either way.
     pub accept_unsigned_telemetry: bool,
+    /// Called with every valid frame received and every frame sent, as on the wire (the
+    /// flight record's `flight.tlog`).
+    pub tap: Option<PacketTap>,
+}
+
+/// Sees the raw bytes of every MAVLink frame in and out (must not block).
+#[derive(Clone)]
+pub struct PacketTap(pub std::sync::Arc<dyn Fn(&[u8]) + Send + Sync>);
+
+impl std::fmt::Debug for PacketTap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PacketTap")
+    }
 }
 
 /// A message that passed the link's checks.
@@ -541,6 +554,9 @@ impl LinkTask {
         match tokio::time::timeout(WRITE_TIMEOUT, conn.send(bytes, to)).await {
             Ok(Ok(true)) => {
                 self.stats.messages_sent += 1;
+                if let Some(tap) = &self.settings.tap {
+                    (tap.0)(bytes);
+                }
                 if let Some(f) = on_sent {
                     f(crate::clock::now());
                 }
@@ -653,6 +669,13 @@ impl LinkTask {
         conn: &mut Connection,
     ) {
         let at = crate::clock::now();
+        if let Some(tap) = &self.settings.tap {
+            let bytes = match &raw {
+                MAVLinkMessageRaw::V1(r) => r.raw_bytes(),
+                MAVLinkMessageRaw::V2(r) => r.raw_bytes(),
+            };
+            (tap.0)(bytes);
+        }
         // 1. The peer.
         if let (Some(from), Some(remote)) = (from, conn.fixed_remote()) {
             if from != remote {

@@ -1,0 +1,476 @@
+//! The recorder: a thread that owns the flight's files, fed through a bounded queue so that
+//! the frame step and the MAVLink link never wait for the disk.
+//!
+//! - Frame records are appended to `frames.ndjson` one `write` per line, and the files are
+//!   flushed and `fdatasync`ed whenever the queue runs empty (group commit): a SIGKILL or a
+//!   power cut loses at most the records still in flight, and a line cut short is skipped by
+//!   the reader.
+//! - When the queue is full (the disk is slower than the frames), records are dropped and
+//!   counted.
+//! - A write that fails (disk full, read-only, removed) stops recording: the files are cut
+//!   back to their last whole record, the failure is announced once (log and STATUSTEXT),
+//!   and every [`RETRY_EVERY`] a write is tried again; when it succeeds recording resumes,
+//!   with a [`GapRecord`] saying what was lost.
+//! - `recording.max_total_mb`: the oldest other flights are deleted to stay under the cap;
+//!   a flight that alone outgrows it stops recording, as above.
+
+use super::flight::{self, FlightFiles};
+use super::format::{EndRecord, FrameRecord, GapRecord, Record};
+use super::tlog;
+use super::RecordError;
+use crate::config::RecordingSettings;
+use crate::health::{Level, Notice};
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// How often a stopped recording tries to write again.
+pub const RETRY_EVERY: Duration = Duration::from_secs(5);
+/// How often the size cap is checked.
+const CAP_CHECK_EVERY: Duration = Duration::from_secs(10);
+/// Longest wait for the queue before the files are synced anyway.
+const IDLE_SYNC: Duration = Duration::from_millis(200);
+
+/// Says something to the operator (STATUSTEXT) and the log.
+pub type Announce = Box<dyn Fn(Notice) + Send>;
+
+/// A frame's pixels for a keyframe (packed RGB24).
+#[derive(Debug, Clone)]
+pub struct KeyframeImage {
+    /// Width (px).
+    pub width_px: u32,
+    /// Height (px).
+    pub height_px: u32,
+    /// Packed RGB24.
+    pub rgb: Vec<u8>,
+}
+
+enum Item {
+    Frame(Box<FrameRecord>, Option<KeyframeImage>),
+    Packet(u64, Vec<u8>),
+    Finish(Option<serde_json::Value>),
+}
+
+#[derive(Debug, Default)]
+struct QueueCounters {
+    frames_dropped: AtomicU64,
+    packets_dropped: AtomicU64,
+}
+
+/// Feeds the recorder (cheap to clone; never blocks).
+#[derive(Clone)]
+pub struct RecordSink {
+    tx: SyncSender<Item>,
+    counters: Arc<QueueCounters>,
+}
+
+impl std::fmt::Debug for RecordSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordSink")
+            .field("counters", &self.counters)
+            .finish_non_exhaustive()
+    }
+}
+
+impl RecordSink {
+    /// Queues a frame record (and its keyframe's pixels); dropped and counted when the queue
+    /// is full.
+    pub fn frame(&self, record: FrameRecord, keyframe: Option<KeyframeImage>) {
+        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) =
+            self.tx.try_send(Item::Frame(Box::new(record), keyframe))
+        {
+            self.counters.frames_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Queues a MAVLink packet for `flight.tlog`, stamped now.
+    pub fn packet(&self, bytes: &[u8]) {
+        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self
+            .tx
+            .try_send(Item::Packet(unix_us_now(), bytes.to_vec()))
+        {
+            self.counters
+                .packets_dropped
+                .fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// µs since the UNIX epoch, now.
+pub fn unix_us_now() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+}
+
+/// The running recorder of one flight.
+pub struct Recorder {
+    sink: RecordSink,
+    thread: Option<JoinHandle<EndRecord>>,
+    dir: PathBuf,
+}
+
+impl std::fmt::Debug for Recorder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recorder")
+            .field("dir", &self.dir)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Recorder {
+    /// Creates the flight's folder (its `flight.json` and `config.toml` written) and starts
+    /// the writer thread.
+    pub fn start(
+        settings: &RecordingSettings,
+        info: &super::format::FlightInfo,
+        config_toml: &str,
+        announce: Announce,
+    ) -> Result<Self, RecordError> {
+        let files = flight::create(&settings.dir, info, config_toml)?;
+        let dir = files.dir.clone();
+        let (tx, rx) = mpsc::sync_channel(settings.queue);
+        let counters = Arc::new(QueueCounters::default());
+        let mut writer = Writer {
+            files,
+            settings: settings.clone(),
+            counters: counters.clone(),
+            announce,
+            stopped: None,
+            frames_written: 0,
+            frames_lost_stopped: 0,
+            keyframes: 0,
+            dirty: false,
+            last_cap_check: None,
+        };
+        writer.enforce_cap();
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || writer.run(&rx))
+            .map_err(|e| RecordError::Io {
+                path: dir.clone(),
+                source: e,
+            })?;
+        Ok(Self {
+            sink: RecordSink { tx, counters },
+            thread: Some(thread),
+            dir,
+        })
+    }
+
+    /// The flight's folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// A handle that feeds the recorder.
+    pub fn sink(&self) -> RecordSink {
+        self.sink.clone()
+    }
+
+    /// Writes what is queued and the end record (with the run's counters), closes the files.
+    pub fn finish(mut self, run_stats: Option<serde_json::Value>) -> Option<EndRecord> {
+        // Blocking send: the queue drains on its own; the end record must not be dropped.
+        let _ = self.sink.tx.send(Item::Finish(run_stats));
+        self.thread.take().and_then(|t| t.join().ok())
+    }
+}
+
+/// Recording stopped: since when and why, and what was lost meanwhile.
+struct Stopped {
+    since_unix_us: u64,
+    reason: String,
+    last_try: Instant,
+    frames_lost: u64,
+    packets_lost: u64,
+    /// Stopped by the size cap (only space freed elsewhere resumes it).
+    by_cap: bool,
+}
+
+struct Writer {
+    files: FlightFiles,
+    settings: RecordingSettings,
+    counters: Arc<QueueCounters>,
+    announce: Announce,
+    stopped: Option<Stopped>,
+    frames_written: u64,
+    frames_lost_stopped: u64,
+    keyframes: u64,
+    dirty: bool,
+    last_cap_check: Option<Instant>,
+}
+
+impl Writer {
+    fn run(mut self, rx: &mpsc::Receiver<Item>) -> EndRecord {
+        let mut run_stats = None;
+        loop {
+            let item = match rx.try_recv() {
+                Ok(i) => Some(i),
+                Err(mpsc::TryRecvError::Empty) => {
+                    // The queue ran empty: commit what was written.
+                    self.sync();
+                    match rx.recv_timeout(IDLE_SYNC) {
+                        Ok(i) => Some(i),
+                        Err(RecvTimeoutError::Timeout) => None,
+                        Err(RecvTimeoutError::Disconnected) => break,
+                    }
+                }
+                Err(mpsc::TryRecvError::Disconnected) => break,
+            };
+            match item {
+                Some(Item::Finish(stats)) => {
+                    run_stats = stats;
+                    break;
+                }
+                Some(item) => self.write(item),
+                None => {}
+            }
+            if self
+                .last_cap_check
+                .is_none_or(|t| t.elapsed() >= CAP_CHECK_EVERY)
+            {
+                self.enforce_cap();
+            }
+        }
+        let end = EndRecord {
+            unix_us: unix_us_now(),
+            frames_written: self.frames_written,
+            frames_dropped_queue: self.counters.frames_dropped.load(Ordering::Relaxed),
+            packets_dropped_queue: self.counters.packets_dropped.load(Ordering::Relaxed),
+            frames_lost_stopped: self.frames_lost_stopped,
+            keyframes: self.keyframes,
+            run_stats,
+        };
+        if self.stopped.is_none() {
+            let line = record_line(&Record::End(end.clone()));
+            if let Err(e) = line.and_then(|l| self.append_frames(&l)) {
+                tracing::warn!(error = %e, "flight record: end record not written");
+            }
+        }
+        self.sync();
+        tracing::info!(
+            dir = %self.files.dir.display(),
+            frames = end.frames_written,
+            dropped = end.frames_dropped_queue,
+            lost_while_stopped = end.frames_lost_stopped,
+            "flight record closed"
+        );
+        end
+    }
+
+    fn write(&mut self, item: Item) {
+        if let Some(s) = &mut self.stopped {
+            let retry = !s.by_cap && s.last_try.elapsed() >= RETRY_EVERY;
+            if !retry {
+                let frame = matches!(item, Item::Frame(..));
+                self.lost(frame);
+                return;
+            }
+            s.last_try = Instant::now();
+        }
+        let frame = matches!(item, Item::Frame(..));
+        let result = match item {
+            Item::Frame(record, keyframe) => self.write_frame(*record, keyframe),
+            Item::Packet(at, bytes) => self.write_packet(at, &bytes),
+            Item::Finish(_) => Ok(()),
+        };
+        match result {
+            Ok(()) => {
+                self.dirty = true;
+                if frame {
+                    self.frames_written += 1;
+                }
+                if self.stopped.is_some() {
+                    self.resumed();
+                }
+            }
+            Err(e) => {
+                self.failed(&e, false);
+                self.lost(frame);
+            }
+        }
+    }
+
+    /// A record lost while recording is stopped.
+    fn lost(&mut self, frame: bool) {
+        if let Some(s) = &mut self.stopped {
+            if frame {
+                s.frames_lost += 1;
+                self.frames_lost_stopped += 1;
+            } else {
+                s.packets_lost += 1;
+            }
+        }
+    }
+
+    fn write_frame(
+        &mut self,
+        mut record: FrameRecord,
+        keyframe: Option<KeyframeImage>,
+    ) -> io::Result<()> {
+        if let Some(k) = keyframe {
+            let name = format!("{:08}.jpg", record.frame);
+            match super::keyframe::write(
+                &self.files.dir.join(flight::KEYFRAMES).join(&name),
+                k,
+                self.settings.keyframe_width_px,
+            ) {
+                Ok(()) => {
+                    record.keyframe = Some(name);
+                    self.keyframes += 1;
+                }
+                Err(e) => tracing::debug!(error = %e, "keyframe not written"),
+            }
+        }
+        let line = record_line(&Record::Frame(Box::new(record)))?;
+        // The tlog first: the packets before this frame are on disk when the frame is.
+        self.flush_tlog()?;
+        self.append_frames(&line)
+    }
+
+    fn write_packet(&mut self, unix_us: u64, bytes: &[u8]) -> io::Result<()> {
+        tlog::write_entry(&mut self.files.tlog, unix_us, bytes)?;
+        self.files.tlog_len_buffered += 8 + bytes.len() as u64;
+        Ok(())
+    }
+
+    fn flush_tlog(&mut self) -> io::Result<()> {
+        self.files.tlog.flush()?;
+        self.files.tlog_len = self.files.tlog_len_buffered;
+        Ok(())
+    }
+
+    fn append_frames(&mut self, line: &[u8]) -> io::Result<()> {
+        self.files.frames.write_all(line)?;
+        self.files.frames_len += line.len() as u64;
+        Ok(())
+    }
+
+    fn sync(&mut self) {
+        if !self.dirty || self.stopped.is_some() {
+            return;
+        }
+        let r = self
+            .flush_tlog()
+            .and_then(|()| self.files.frames.sync_data())
+            .and_then(|()| self.files.tlog.get_ref().sync_data());
+        match r {
+            Ok(()) => self.dirty = false,
+            Err(e) => self.failed(&e, false),
+        }
+    }
+
+    /// A write failed: cut the files back to their last whole record and stop.
+    fn failed(&mut self, e: &io::Error, by_cap: bool) {
+        let _ = self.truncate_to_good();
+        if self.stopped.is_some() {
+            return;
+        }
+        let reason = if e.raw_os_error() == Some(libc::ENOSPC) {
+            "disk full".to_owned()
+        } else {
+            e.to_string()
+        };
+        tracing::error!(
+            dir = %self.files.dir.display(), error = %e,
+            "flight recording stopped; tracking and MAVLink go on"
+        );
+        (self.announce)(Notice::new(
+            Level::Warning,
+            format!("mgmot: recording stopped: {reason}"),
+        ));
+        self.stopped = Some(Stopped {
+            since_unix_us: unix_us_now(),
+            reason,
+            last_try: Instant::now(),
+            frames_lost: 0,
+            packets_lost: 0,
+            by_cap,
+        });
+    }
+
+    /// Back to the lengths of the last whole records (a failed write may have left a part of
+    /// one); a fresh tlog buffer.
+    fn truncate_to_good(&mut self) -> io::Result<()> {
+        let f = &mut self.files;
+        f.frames.set_len(f.frames_len)?;
+        f.frames.seek(SeekFrom::Start(f.frames_len))?;
+        let tlog_file = f.tlog.get_ref().try_clone()?;
+        tlog_file.set_len(f.tlog_len)?;
+        let mut file = tlog_file;
+        file.seek(SeekFrom::Start(f.tlog_len))?;
+        // The old buffer holds bytes that may never have made it: dropped, not written.
+        let old = std::mem::replace(&mut f.tlog, BufWriter::new(file));
+        let (_file, _unwritten) = old.into_parts();
+        f.tlog_len_buffered = f.tlog_len;
+        Ok(())
+    }
+
+    fn resumed(&mut self) {
+        let Some(s) = self.stopped.take() else { return };
+        let gap = GapRecord {
+            stopped_unix_us: s.since_unix_us,
+            resumed_unix_us: unix_us_now(),
+            reason: s.reason.clone(),
+            frames_lost: s.frames_lost,
+            packets_lost: s.packets_lost,
+        };
+        if let Ok(line) = record_line(&Record::Gap(gap)) {
+            let _ = self.append_frames(&line);
+        }
+        tracing::info!(
+            frames_lost = s.frames_lost,
+            packets_lost = s.packets_lost,
+            "flight recording resumed"
+        );
+        (self.announce)(Notice::new(
+            Level::Notice,
+            format!("mgmot: recording resumed, {} frames lost", s.frames_lost),
+        ));
+    }
+
+    /// Deletes the oldest other flights to stay under the cap; stops recording when this
+    /// flight alone is over it.
+    fn enforce_cap(&mut self) {
+        self.last_cap_check = Some(Instant::now());
+        let Some(cap) = self.settings.max_total_bytes else {
+            return;
+        };
+        let own = self.files.frames_len + self.files.tlog_len + self.keyframes * 50_000;
+        match flight::enforce_cap(&self.settings.dir, &self.files.dir, own, cap) {
+            Ok(deleted) => {
+                for d in deleted {
+                    tracing::info!(flight = %d.display(), "old flight deleted (recording.max_total_mb)");
+                }
+            }
+            Err(e) => tracing::warn!(error = %e, "recording.max_total_mb: old flights not deleted"),
+        }
+        if own > cap && self.stopped.is_none() {
+            let e = io::Error::other(format!(
+                "this flight reached recording.max_total_mb ({} MB)",
+                cap >> 20
+            ));
+            self.failed(&e, true);
+        }
+    }
+}
+
+/// One record as a line (JSON and a newline).
+fn record_line(r: &Record) -> io::Result<Vec<u8>> {
+    let mut line = serde_json::to_vec(r).map_err(io::Error::other)?;
+    line.push(b'\n');
+    Ok(line)
+}
+
+/// Opens `path` for appending.
+pub(super) fn append(path: &Path) -> io::Result<File> {
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+}
