@@ -14,6 +14,8 @@
 //! - [`config`]: the runtime's TOML configuration, validated into typed settings.
 //! - [`pipeline`]: the onboard runtime's wiring: capture, one frame's step, outputs.
 //! - [`firmware`]: autopilot parameter files checked against parameter metadata tables.
+//! - [`record`]: the flight record; [`review`]: a recorded flight as an HTML report, GeoJSON
+//!   and KML.
 #![warn(missing_docs)]
 
 pub mod camera;
@@ -26,5 +28,6 @@ pub mod logging;
 pub mod mavlink;
 pub mod pipeline;
 pub mod record;
+pub mod review;
 
 pub use mgmot_core::{digest, eval, frame, geo, health, operator, report, telemetry, track};

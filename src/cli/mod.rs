@@ -10,6 +10,7 @@ mod detect;
 mod eval;
 mod firmware_check;
 mod geolocate;
+mod review;
 mod run;
 mod stdout;
 mod track;
@@ -41,6 +42,8 @@ enum Command {
     FirmwareCheck(firmware_check::Args),
     /// Run the onboard pipeline (MAVLink, frames, detector, tracker, track messages).
     Run(run::Args),
+    /// Review a recorded flight: an HTML report plus GeoJSON and KML of the tracks.
+    Review(review::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -55,6 +58,7 @@ pub fn main() -> ExitCode {
         Command::CheckConfig(args) => check_config::run(args),
         Command::FirmwareCheck(args) => firmware_check::run(args),
         Command::Run(args) => run::run(args),
+        Command::Review(args) => review::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
