@@ -24,6 +24,14 @@ if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pyma
 fi
 export PATH="$PWD/.venv/bin:$PATH"
 
+# Debian's Chromium, headless: tests/review.rs opens `mgmot review`'s report in it (and fails,
+# naming it, without it).
+if ! command -v chromium >/dev/null 2>&1; then
+  echo "== chromium (tests/review.rs)"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
+fi
+
 # ONNX Runtime (from the onnxruntime wheel on PyPI) for the tests that need it (the
 # tract/onnxruntime parity and default-backend tests in tests/detect_cli.rs).
 if [ -z "${ORT_DYLIB_PATH:-}" ]; then

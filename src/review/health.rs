@@ -14,8 +14,8 @@ pub const GAP_S: f64 = 1.0;
 /// Messages of one type from one sender.
 #[derive(Debug, Clone, Serialize)]
 pub struct Rate {
-    /// `autopilot` or `mgmot`.
-    pub from: &'static str,
+    /// `autopilot`, `mgmot` or `sys S comp C`.
+    pub from: String,
     /// The message's name (`#ID` when this dialect does not know it).
     pub name: String,
     /// Packets.
@@ -96,7 +96,7 @@ impl Health {
             (Some(a), Some(b)) => (b.unix_us.saturating_sub(a.unix_us)) as f64 / 1e6,
             _ => 0.0,
         };
-        let mut counts: BTreeMap<(&'static str, String), u64> = BTreeMap::new();
+        let mut counts: BTreeMap<(String, String), u64> = BTreeMap::new();
         let mut undecoded = 0;
         let mut gaps = Vec::new();
         let mut last_autopilot: Option<u64> = None;
@@ -112,9 +112,9 @@ impl Health {
                 undecoded += 1;
             }
             let from = match (from_autopilot, from_mgmot) {
-                (true, _) => "autopilot",
-                (_, true) => "mgmot",
-                _ => "other",
+                (true, _) => "autopilot".to_owned(),
+                (_, true) => "mgmot".to_owned(),
+                _ => format!("sys {} comp {}", e.system_id(), e.component_id()),
             };
             let name = message.as_ref().map_or_else(
                 || format!("#{}", e.message_id()),

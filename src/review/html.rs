@@ -136,7 +136,7 @@ table { border-collapse: collapse; font-size: .88em; margin: .4em 0; }
 th, td { border: 1px solid #ccd; padding: .25em .5em; text-align: left; vertical-align: top; }
 th { background: #eef1f5; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
-.mono { font-family: ui-monospace, monospace; }
+.mono { font-family: ui-monospace, monospace; white-space: nowrap; }
 .charts { display: flex; flex-wrap: wrap; gap: 1em; }
 .chart { background: #fff; border: 1px solid #ccd; }
 .chart text, #timeline text { font-size: 11px; fill: #333; }
@@ -280,9 +280,10 @@ const map = (function buildMap() {
 
   // every footprint, faint: what the camera covered
   const fpStep = Math.max(1, Math.floor(D.map.length / 300));
+  const fpCount = Math.ceil(D.map.length / fpStep);
   D.map.forEach(function (f, i) {
     if (i % fpStep !== 0 || f.footprint.length < 3) { return; }
-    el("polygon", { points: f.footprint.map(function (p) { return p[1] + "," + (-p[0]); }).join(" "), fill: "#2a6fb0", "fill-opacity": 0.025, stroke: "none" }, gFoot);
+    el("polygon", { points: f.footprint.map(function (p) { return p[1] + "," + (-p[0]); }).join(" "), fill: "#2a6fb0", "fill-opacity": Math.max(0.012, Math.min(0.06, 3 / Math.max(fpCount, 1))), stroke: "none" }, gFoot);
   });
   const nowFoot = el("polygon", { id: "footprint-now", points: "", fill: "#2a6fb0", "fill-opacity": 0.18, stroke: "#2a6fb0", "stroke-width": 1.5, "vector-effect": "non-scaling-stroke" }, gFoot);
 
@@ -439,6 +440,12 @@ setTime(duration);
 })();
 
 // ---------- charts ----------
+function niceStep(range, n) {
+  const raw = Math.max(range, 1e-9) / n;
+  const p = Math.pow(10, Math.floor(Math.log10(raw)));
+  for (const m of [1, 2, 5, 10]) { if (m * p >= raw) { return m * p; } }
+  return 10 * p;
+}
 function chart(parent, opts) {
   const W = opts.width || 520, H = opts.height || 180, L = 52, R = 12, T = 22, B = 30;
   const svg = el("svg", { class: "chart", viewBox: "0 0 " + W + " " + H, width: W, height: H }, parent);
@@ -462,8 +469,9 @@ function chart(parent, opts) {
     el("line", { x1: L, x2: W - R, y1: Y(y), y2: Y(y), stroke: "#eee" }, svg);
     text(svg, 4, Y(y) + 4, Math.abs(y1 - y0) < 5 ? y.toFixed(2) : y.toFixed(0));
   }
-  for (let i = 0; i <= 5; i++) { const x = x0 + (x1 - x0) * i / 5; text(svg, X(x) - 10, H - 12, x.toFixed(0) + (i === 5 ? " " + (opts.xunit || "s") : "")); }
-  text(svg, W - R - 120, 14, opts.yunit || "", { fill: "#667" });
+  const xs = niceStep(x1 - x0, 6);
+  for (let x = Math.ceil(x0 / xs) * xs; x <= x1 + 1e-9; x += xs) { text(svg, X(x) - 8, H - 12, String(Math.round(x * 100) / 100)); }
+  text(svg, W - R - 14, H - 2, opts.xunit || "s", { fill: "#667" });
   opts.series.forEach(function (s) {
     if (s.step) {
       const pts = []; let prev = null;
@@ -488,12 +496,12 @@ function chart(parent, opts) {
   const H = D.health;
   const box = document.getElementById("health");
   const p = h("p", {}, box);
-  p.textContent = H.packets + " MAVLink packets in flight.tlog over " + fmt(H.tlog_span_s, 1) + " s" + (H.undecoded ? " (" + H.undecoded + " not decoded)" : "") + "; " + H.gaps.length + " silence(s) of the autopilot longer than 1 s; " + H.dropped_total + " camera frames dropped (inference busy); " + H.timesync.length + " TIMESYNC round trips.";
+  p.textContent = H.packets + " MAVLink packets in flight.tlog over " + fmt(H.tlog_span_s, 1) + " s" + (H.undecoded ? " (" + H.undecoded + " not decoded)" : "") + "; " + H.gaps.length + " silence(s) of the autopilot longer than 1 s; " + H.dropped_total + " camera frames dropped (inference busy); " + H.timesync.length + " TIMESYNC round trips" + (H.timesync.length ? " (first offset " + fmt(H.timesync[0].offset_ms / 1000, 3) + " s)" : "") + ".";
   const charts = h("div", { class: "charts" }, box);
   const ts = H.timesync;
   if (ts.length > 0) {
     const o0 = ts[0].offset_ms;
-    chart(charts, { id: "timesync-chart", title: "TIMESYNC: autopilot − companion clock, change since first (ms)", yunit: "offset " + fmt(o0 / 1000, 3) + " s at first", xmin: 0, xmax: duration || undefined, series: [{ color: "#4363d8", dots: true, points: ts.map(function (x) { return [x.t, x.offset_ms - o0]; }) }] });
+    chart(charts, { id: "timesync-chart", title: "TIMESYNC offset (autopilot − companion), change since the first (ms)", xmin: 0, xmax: duration || undefined, series: [{ color: "#4363d8", dots: true, points: ts.map(function (x) { return [x.t, x.offset_ms - o0]; }) }] });
     chart(charts, { id: "rtt-chart", title: "TIMESYNC round trip (ms)", xmin: 0, xmax: duration || undefined, ymin: 0, series: [{ color: "#f58231", dots: true, points: ts.map(function (x) { return [x.t, x.rtt_ms]; }) }] });
   } else {
     h("p", { class: "warn" }, box, "No TIMESYNC round trips in flight.tlog: the frame times could not be checked against the autopilot's clock.");
@@ -528,9 +536,9 @@ function chart(parent, opts) {
       const tr = b.track_id !== null ? byId[b.track_id] : null;
       const color = tr ? tr.color : "#ffffff";
       el("rect", { x: b.xywh[0], y: b.xywh[1], width: b.xywh[2], height: b.xywh[3], fill: "none", stroke: color, "stroke-width": 2 * s, "stroke-dasharray": tr ? "" : (4 * s) + " " + (3 * s) }, svg);
-      text(svg, b.xywh[0], b.xywh[1] - 3 * s, (tr ? b.track_id + " " : "") + b.class + " " + b.score.toFixed(2), { fill: color, "font-size": 11 * s, "font-weight": "bold", stroke: "#000", "stroke-width": 0.4 * s });
+      if (tr) { text(svg, b.xywh[0], b.xywh[1] - 3 * s, b.track_id + " " + b.class + " " + b.score.toFixed(2), { fill: color, "font-size": 11 * s, "font-weight": "bold", stroke: "#000", "stroke-width": 0.4 * s }); }
     });
-    h("figcaption", {}, fig, k.file + " · t = " + k.t.toFixed(1) + " s · " + k.utc + " · " + k.boxes.filter(function (b) { return b.track_id !== null; }).length + " track(s)");
+    h("figcaption", {}, fig, k.file + " · t = " + k.t.toFixed(1) + " s · " + k.utc + " · " + k.boxes.filter(function (b) { return b.track_id !== null; }).length + " track(s); dashed white: detections no track reported");
   });
 })();
 
