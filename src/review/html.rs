@@ -279,11 +279,14 @@ const map = (function buildMap() {
   }
 
   // every footprint, faint: what the camera covered
-  const fpStep = Math.max(1, Math.floor(D.map.length / 300));
+  // At most 50 of them: a browser keeps 8 bits of opacity, so fainter ones would vanish.
+  const fpStep = Math.max(1, Math.ceil(D.map.length / 50));
   const fpCount = Math.ceil(D.map.length / fpStep);
+  // Where every drawn footprint overlaps, the blue reaches 40 %: a coverage density.
+  const fpAlpha = Math.max(1 - Math.pow(0.6, 1 / Math.max(fpCount, 1)), 0.01);
   D.map.forEach(function (f, i) {
     if (i % fpStep !== 0 || f.footprint.length < 3) { return; }
-    el("polygon", { points: f.footprint.map(function (p) { return p[1] + "," + (-p[0]); }).join(" "), fill: "#2a6fb0", "fill-opacity": Math.max(0.012, Math.min(0.06, 3 / Math.max(fpCount, 1))), stroke: "none" }, gFoot);
+    el("polygon", { points: f.footprint.map(function (p) { return p[1] + "," + (-p[0]); }).join(" "), fill: "#2a6fb0", "fill-opacity": fpAlpha, stroke: "none" }, gFoot);
   });
   const nowFoot = el("polygon", { id: "footprint-now", points: "", fill: "#2a6fb0", "fill-opacity": 0.18, stroke: "#2a6fb0", "stroke-width": 1.5, "vector-effect": "non-scaling-stroke" }, gFoot);
 
@@ -418,21 +421,27 @@ setTime(duration);
 (function trackTable() {
   const box = document.getElementById("tracks");
   if (D.tracks.length === 0) { h("p", {}, box, "No confirmed tracks in this flight."); return; }
+  const day = D.flight.span_utc ? D.flight.span_utc[0].slice(0, 10) : "";
+  const allSameDay = D.tracks.every(function (k) { return k.first_utc.slice(0, 10) === day && k.last_utc.slice(0, 10) === day; });
+  const when = function (u) { return allSameDay ? u.slice(11) : u.replace("T", " "); };
   const t = h("table", { id: "tracks-table" }, box);
   const head = h("tr", {}, t);
-  ["Track", "Class", "First seen (UTC)", "Last seen (UTC)", "Last position (lat, lon)", "D°M.mmm'", "±1σ (m)", "Fix time (UTC)", "Distance travelled (m)", "Drift (m/s @ °T)", "Frames", "Ids"].forEach(function (c) { h("th", {}, head, c); });
+  ["Track", "Class", "First seen (UTC" + (allSameDay ? " " + day : "") + ")", "Last seen", "Last position (lat, lon)", "±1σ (m)", "Distance travelled (m)", "Drift (m/s @ °T)", "Frames", "Ids"].forEach(function (c) { h("th", {}, head, c); });
   D.tracks.forEach(function (k) {
     const r = h("tr", { id: "track-row-" + k.id }, t);
     const c0 = h("td", {}, r); h("span", { class: "swatch", style: "background:" + k.color }, c0); c0.appendChild(document.createTextNode(String(k.id)));
     h("td", {}, r, k.class);
-    h("td", { class: "mono" }, r, k.first_utc);
-    h("td", { class: "mono" }, r, k.last_utc);
-    h("td", { class: "mono" }, r, k.last_lat_lon ? k.last_lat_lon[0].toFixed(6) + ", " + k.last_lat_lon[1].toFixed(6) : "not geolocated");
-    h("td", { class: "mono" }, r, k.last_dm || "–");
+    h("td", { class: "mono" }, r, when(k.first_utc));
+    h("td", { class: "mono" }, r, when(k.last_utc));
+    const pos = h("td", { class: "mono" }, r);
+    if (k.last_lat_lon) {
+      h("div", {}, pos, k.last_lat_lon[0].toFixed(6) + ", " + k.last_lat_lon[1].toFixed(6));
+      h("div", {}, pos, k.last_dm);
+      if (k.last_fix_utc !== k.last_utc) { h("div", { class: "muted" }, pos, "fix at " + when(k.last_fix_utc)); }
+    } else { pos.textContent = "not geolocated"; }
     h("td", { class: "num" }, r, fmt(k.last_h_std_m, 1));
-    h("td", { class: "mono" }, r, k.last_fix_utc || "–");
     h("td", { class: "num" }, r, fmt(k.distance_m, 1));
-    h("td", { class: "num" }, r, k.drift_mps === null ? "–" : fmt(k.drift_mps, 2) + " @ " + fmt(k.drift_course_deg, 0) + "°");
+    h("td", { class: "num mono" }, r, k.drift_mps === null ? "–" : fmt(k.drift_mps, 2) + " @ " + fmt(k.drift_course_deg, 0).padStart(3, "0") + "°");
     h("td", { class: "num" }, r, String(k.frames));
     h("td", {}, r, k.ids.join(", "));
   });
@@ -454,7 +463,8 @@ function chart(parent, opts) {
   const all = [];
   opts.series.forEach(function (s) { s.points.forEach(function (p) { all.push(p); }); });
   if (all.length === 0) { text(svg, L, H / 2, "no data"); return svg; }
-  let x0 = opts.xmin !== undefined ? opts.xmin : Math.min.apply(null, all.map(function (p) { return p[0]; }));
+  const dataX0 = Math.min.apply(null, all.map(function (p) { return p[0]; }));
+  let x0 = opts.xmin !== undefined ? Math.min(opts.xmin, dataX0) : dataX0;
   let x1 = opts.xmax !== undefined ? opts.xmax : Math.max.apply(null, all.map(function (p) { return p[0]; }));
   let y0 = opts.ymin !== undefined ? opts.ymin : Math.min.apply(null, all.map(function (p) { return p[1]; }));
   let y1 = Math.max.apply(null, all.map(function (p) { return p[1]; }));
