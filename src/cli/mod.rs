@@ -10,9 +10,11 @@ mod detect;
 mod eval;
 mod firmware_check;
 mod geolocate;
+mod replay;
 mod run;
 mod stdout;
 mod track;
+mod track_output;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
 #[derive(Debug, Parser)]
@@ -41,6 +43,8 @@ enum Command {
     FirmwareCheck(firmware_check::Args),
     /// Run the onboard pipeline (MAVLink, frames, detector, tracker, track messages).
     Run(run::Args),
+    /// Re-run tracking over a recorded flight (online reproduces it; offline post-processes).
+    Replay(replay::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -55,6 +59,7 @@ pub fn main() -> ExitCode {
         Command::CheckConfig(args) => check_config::run(args),
         Command::FirmwareCheck(args) => firmware_check::run(args),
         Command::Run(args) => run::run(args),
+        Command::Replay(args) => replay::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
