@@ -9,8 +9,8 @@
 //!   counted.
 //! - A write that fails (disk full, read-only, removed) stops recording: the files are cut
 //!   back to their last whole record, the failure is announced once (log and STATUSTEXT),
-//!   and every [`RETRY_EVERY`] a write is tried again; when it succeeds recording resumes,
-//!   with a [`GapRecord`] saying what was lost.
+//!   and every [`RETRY_EVERY`] a write is tried again once [`RESUME_FREE_BYTES`] are free;
+//!   when it succeeds recording resumes, with a [`GapRecord`] saying what was lost.
 //! - `recording.max_total_mb`: the oldest other flights are deleted to stay under the cap;
 //!   a flight that alone outgrows it stops recording, as above.
 
@@ -31,6 +31,9 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// How often a stopped recording tries to write again.
 pub const RETRY_EVERY: Duration = Duration::from_secs(5);
+/// A recording stopped by a full disk resumes only with this much free (so that it does not
+/// stop and resume, announcing both, every few seconds on a disk that is still nearly full).
+pub const RESUME_FREE_BYTES: u64 = 4 << 20;
 /// How often the size cap is checked.
 const CAP_CHECK_EVERY: Duration = Duration::from_secs(10);
 /// Longest wait for the queue before the files are synced anyway.
@@ -264,20 +267,29 @@ impl Writer {
     }
 
     fn write(&mut self, item: Item) {
+        let frame = matches!(item, Item::Frame(..));
+        let retrying = self.stopped.is_some();
         if let Some(s) = &mut self.stopped {
-            let retry = !s.by_cap && s.last_try.elapsed() >= RETRY_EVERY;
-            if !retry {
-                let frame = matches!(item, Item::Frame(..));
+            if s.by_cap || s.last_try.elapsed() < RETRY_EVERY {
                 self.lost(frame);
                 return;
             }
             s.last_try = Instant::now();
+            if free_bytes(&self.files.dir).is_some_and(|free| free < RESUME_FREE_BYTES) {
+                self.lost(frame);
+                return;
+            }
         }
-        let frame = matches!(item, Item::Frame(..));
         let result = match item {
             Item::Frame(record, keyframe) => self.write_frame(*record, keyframe),
             Item::Packet(at, bytes) => self.write_packet(at, &bytes),
             Item::Finish(_) => Ok(()),
+        };
+        // A retry counts only once its bytes are in the file, not in a buffer.
+        let result = if retrying {
+            result.and_then(|()| self.flush_tlog())
+        } else {
+            result
         };
         match result {
             Ok(()) => {
@@ -423,7 +435,8 @@ impl Writer {
         if let Ok(line) = record_line(&Record::Gap(gap)) {
             let _ = self.append_frames(&line);
         }
-        tracing::info!(
+        // A warning, as the stop was: the record has a hole.
+        tracing::warn!(
             frames_lost = s.frames_lost,
             packets_lost = s.packets_lost,
             "flight recording resumed"
@@ -458,6 +471,19 @@ impl Writer {
             self.failed(&e, true);
         }
     }
+}
+
+/// Free bytes for an unprivileged writer on the file system of `dir` (`None`: unknown).
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let path = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    // SAFETY: an all-zero statvfs is a valid value for the call to overwrite.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    // SAFETY: `path` is a NUL-terminated string and `st` a valid, writable statvfs.
+    let rc = unsafe { libc::statvfs(path.as_ptr(), &mut st) };
+    // The field types differ between targets.
+    #[allow(clippy::unnecessary_cast, clippy::useless_conversion)]
+    (rc == 0).then(|| u64::from(st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
 }
 
 /// One record as a line (JSON and a newline).
