@@ -500,3 +500,139 @@ pub(super) fn append(path: &Path) -> io::Result<File> {
         .append(true)
         .open(path)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::format::{DetectorIdentity, FlightInfo, FORMAT, VERSION};
+    use crate::record::Flight;
+    use std::sync::Mutex;
+
+    fn settings(dir: &Path, queue: usize) -> RecordingSettings {
+        RecordingSettings {
+            dir: dir.to_owned(),
+            max_total_bytes: None,
+            keyframe_every: None,
+            keyframe_width_px: 64,
+            queue,
+        }
+    }
+
+    fn info() -> FlightInfo {
+        FlightInfo {
+            format: FORMAT.into(),
+            version: VERSION,
+            mgmot_version: "test".into(),
+            started_utc: String::new(),
+            started_unix_us: unix_us_now(),
+            system_id: 1,
+            component_id: 191,
+            detector: DetectorIdentity {
+                kind: "replay".into(),
+                file: "dets.json".into(),
+                sha256: String::new(),
+                bytes: 0,
+            },
+            config_file: "config.toml".into(),
+        }
+    }
+
+    fn frame(n: u64) -> FrameRecord {
+        FrameRecord {
+            frame: n,
+            time_s: n as f64 / 30.0,
+            autopilot_time_us: None,
+            captured_unix_us: None,
+            processed_unix_us: unix_us_now(),
+            width_px: 64,
+            height_px: 48,
+            pose: None,
+            no_pose: Some("test".into()),
+            water_amsl_m: None,
+            detections: Vec::new(),
+            tracks: Vec::new(),
+            merges: Vec::new(),
+            frames_dropped: 0,
+            keyframe: None,
+        }
+    }
+
+    #[test]
+    fn a_queue_faster_than_the_disk_drops_and_counts_records_and_never_blocks() {
+        let root = tempfile::tempdir().unwrap();
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let s = said.clone();
+        let rec = Recorder::start(
+            &settings(root.path(), 16),
+            &info(),
+            "",
+            Box::new(move |n| s.lock().unwrap().push(n.text)),
+        )
+        .unwrap();
+        let sink = rec.sink();
+        let started = Instant::now();
+        let heartbeat = [
+            0xFD, 9, 0, 0, 0, 1, 191, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 2,
+        ];
+        for n in 0..20_000 {
+            sink.packet(&heartbeat);
+            if n % 10 == 0 {
+                sink.frame(frame(n / 10), None);
+            }
+        }
+        // 22,000 records queued in far less than the disk could take one by one.
+        assert!(started.elapsed() < Duration::from_secs(2));
+        let dir = rec.dir().to_owned();
+        let end = rec.finish(None).unwrap();
+        assert_eq!(end.frames_written + end.frames_dropped_queue, 2_000);
+        assert!(end.packets_dropped_queue > 0, "{end:?}");
+        let flight = Flight::load(&dir).unwrap();
+        assert_eq!(flight.frames.len() as u64, end.frames_written);
+        assert_eq!(flight.end, Some(end.clone()));
+        let (packets, clean) = flight.tlog().unwrap();
+        assert!(clean);
+        assert_eq!(packets.len() as u64 + end.packets_dropped_queue, 20_000);
+        assert!(said.lock().unwrap().is_empty(), "nothing to announce");
+    }
+
+    #[test]
+    fn a_flight_over_the_cap_stops_recording_and_says_so_once() {
+        let root = tempfile::tempdir().unwrap();
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let s = said.clone();
+        let mut settings = settings(root.path(), 100_000);
+        settings.max_total_bytes = Some(200_000);
+        let rec = Recorder::start(
+            &settings,
+            &info(),
+            "",
+            Box::new(move |n| s.lock().unwrap().push(n.text)),
+        )
+        .unwrap();
+        let sink = rec.sink();
+        let big = vec![0xFDu8; 280];
+        // About 1.5 MB of packets over the 10 s cap check: the flight outgrows the cap.
+        for _ in 0..110 {
+            for _ in 0..50 {
+                let mut p = big.clone();
+                p[1] = 255;
+                p[2] = 0;
+                sink.packet(&p[..267]);
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let dir = rec.dir().to_owned();
+        rec.finish(None).unwrap();
+        let said = said.lock().unwrap().clone();
+        assert_eq!(said.len(), 1, "{said:?}");
+        assert!(said[0].contains("recording.max_total_mb"), "{said:?}");
+        let (packets, clean) = Flight::load(&dir).unwrap().tlog().unwrap();
+        assert!(clean);
+        // 5,500 sent over 11 s; the cap is checked every 10 s.
+        assert!(
+            packets.len() < 5_400,
+            "{} packets: recording went on",
+            packets.len()
+        );
+    }
+}
