@@ -53,13 +53,13 @@ pub fn write_entry(out: &mut impl Write, unix_us: u64, packet: &[u8]) -> io::Res
 /// The length of the packet at the start of `b` (header, payload, checksum and signature),
 /// or `None` when `b` does not start with a MAVLink magic byte or is cut short.
 fn packet_len(b: &[u8]) -> Option<usize> {
-    let len = match b.first()? {
-        &MAGIC_V2 => {
+    let len = match *b.first()? {
+        MAGIC_V2 => {
             let payload = usize::from(*b.get(1)?);
             let signed = b.get(2)? & 0x01 != 0;
             10 + payload + 2 + if signed { 13 } else { 0 }
         }
-        &MAGIC_V1 => 6 + usize::from(*b.get(1)?) + 2,
+        MAGIC_V1 => 6 + usize::from(*b.get(1)?) + 2,
         _ => return None,
     };
     (b.len() >= len).then_some(len)

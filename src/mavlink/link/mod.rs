@@ -123,9 +123,12 @@ pub struct LinkSettings {
     pub tap: Option<PacketTap>,
 }
 
+/// What a [`PacketTap`] calls.
+pub type TapFn = dyn Fn(&[u8]) + Send + Sync;
+
 /// Sees the raw bytes of every MAVLink frame in and out (must not block).
 #[derive(Clone)]
-pub struct PacketTap(pub std::sync::Arc<dyn Fn(&[u8]) + Send + Sync>);
+pub struct PacketTap(pub std::sync::Arc<TapFn>);
 
 impl std::fmt::Debug for PacketTap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
