@@ -47,5 +47,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         config.outputs.heartbeat_hz
     )?;
+    match &settings.recording {
+        Some(r) => writeln!(
+            out,
+            "  recording: {} (cap {}, keyframes {})",
+            r.dir.display(),
+            r.max_total_bytes
+                .map_or("none".to_owned(), |b| format!("{} MB", b >> 20)),
+            r.keyframe_every
+                .map_or("off".to_owned(), |d| format!("every {} s", d.as_secs_f64()))
+        )?,
+        None => writeln!(out, "  recording: off")?,
+    }
     Ok(())
 }

@@ -10,10 +10,12 @@ mod detect;
 mod eval;
 mod firmware_check;
 mod geolocate;
+mod replay;
 mod review;
 mod run;
 mod stdout;
 mod track;
+mod track_output;
 
 /// Metadata-guided multi-object tracking for maritime search-and-rescue drones.
 #[derive(Debug, Parser)]
@@ -44,6 +46,8 @@ enum Command {
     Run(run::Args),
     /// Review a recorded flight: an HTML report plus GeoJSON and KML of the tracks.
     Review(review::Args),
+    /// Re-run tracking over a recorded flight (online reproduces it; offline post-processes).
+    Replay(replay::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -59,6 +63,7 @@ pub fn main() -> ExitCode {
         Command::FirmwareCheck(args) => firmware_check::run(args),
         Command::Run(args) => run::run(args),
         Command::Review(args) => review::run(args),
+        Command::Replay(args) => replay::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

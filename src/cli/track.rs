@@ -3,19 +3,16 @@
 
 use super::args::Finite;
 use super::stdout::Stdout;
+use super::track_output::{track_frames, write_results, FrameTime, GeoOut, Mode};
 use anyhow::{bail, Context};
-use clap::{Args as ClapArgs, ValueEnum};
+use clap::Args as ClapArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use mgmot::eval::BoxXywh;
-use mgmot::formats::geopoints::{write_geo_rows, GeoRow};
 use mgmot::formats::input::{self, InputKind};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
-use mgmot::frame::{geo_fix, tracker_input};
+use mgmot::frame::tracker_input;
 use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, PoseNoise};
-use mgmot::track::{
-    track_sequence, BBox, Detection, MergeEvent, SequenceTrack, Tracker, TrackerParams,
-};
+use mgmot::track::{BBox, Detection, MergeEvent, TrackerParams};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Write;
@@ -84,48 +81,6 @@ pub struct Args {
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     json: bool,
-}
-
-/// Tracking mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-enum Mode {
-    Online,
-    Offline,
-}
-
-/// Geo track file format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum GeoOut {
-    Csv,
-    Geojson,
-}
-
-/// One track in one frame, geolocated.
-#[derive(Debug, Serialize)]
-struct TrackRow {
-    frame: u64,
-    time_s: f64,
-    track_id: u64,
-    class_id: u32,
-    score: f32,
-    lat_deg: f64,
-    lon_deg: f64,
-    north_m: f64,
-    east_m: f64,
-    vel_north_mps: f64,
-    vel_east_mps: f64,
-    h_std_m: f64,
-    interpolated: bool,
-}
-
-impl GeoRow for TrackRow {
-    fn lat_deg(&self) -> f64 {
-        self.lat_deg
-    }
-    fn lon_deg(&self) -> f64 {
-        self.lon_deg
-    }
 }
 
 /// Per-video outcome.
@@ -418,114 +373,33 @@ fn track_video(
         previous = geometry;
     }
 
-    // Every reported track box of either mode, with the position of its frame in the video.
-    let mut tracked: Vec<(usize, SequenceTrack)> = Vec::new();
-    let mut merges = Vec::new();
-    match args.mode {
-        Mode::Online => {
-            let mut tracker = Tracker::new(params.clone())?;
-            for (pos, input) in inputs.iter().enumerate() {
-                let out = tracker.step(input)?;
-                tracked.extend(out.tracks.iter().map(|t| {
-                    let st = SequenceTrack {
-                        id: t.id,
-                        bbox: t.bbox,
-                        score: t.score,
-                        class_id: t.class_id,
-                        world: t.world,
-                        interpolated: false,
-                    };
-                    (pos, st)
-                }));
-                merges.extend(out.merges);
-                progress.inc(1);
-            }
-            merges.extend(tracker.finish());
-        }
-        Mode::Offline => {
-            let result = track_sequence(&inputs, params)?;
-            for (pos, frame) in result.frames.iter().enumerate() {
-                tracked.extend(frame.tracks.iter().map(|t| (pos, *t)));
-            }
-            progress.inc(inputs.len() as u64);
-        }
-    }
-
-    let reference = geolocator.as_ref().map(|g| g.reference());
-    let mut mot_rows = Vec::with_capacity(tracked.len());
-    let mut geo_rows = Vec::with_capacity(tracked.len());
-    for (pos, t) in &tracked {
-        let f = &seq.frames[*pos];
-        mot_rows.push(mot_result(
-            f.frame_number,
-            t.id,
-            &t.bbox,
-            t.score,
-            args.class_column.then_some(t.class_id),
-        ));
-        if let (Some(world), Some(reference)) = (&t.world, reference) {
-            let fix = geo_fix(reference, world, None);
-            geo_rows.push(TrackRow {
-                frame: f.frame_number,
-                time_s: f.time_s,
-                track_id: t.id,
-                class_id: t.class_id,
-                score: t.score,
-                lat_deg: fix.position.lat_deg,
-                lon_deg: fix.position.lon_deg,
-                north_m: world.pos_ne_m.x,
-                east_m: world.pos_ne_m.y,
-                vel_north_mps: fix.vel_n_mps,
-                vel_east_mps: fix.vel_e_mps,
-                h_std_m: fix.h_std_m,
-                interpolated: t.interpolated,
-            });
-        }
-    }
-
-    let mot_path = args.out.join(format!("{}.txt", seq.name));
-    let file = std::fs::File::create(&mot_path)
-        .with_context(|| format!("creating {}", mot_path.display()))?;
-    let mut writer = std::io::BufWriter::new(file);
-    mot::write(&mut writer, &mot_rows)
-        .and_then(|()| writer.flush())
-        .with_context(|| format!("writing {}", mot_path.display()))?;
-    let ext = match args.geo_format {
-        GeoOut::Csv => "csv",
-        GeoOut::Geojson => "geojson",
-    };
-    let geo_path = args.out.join(format!("{}_tracks.{ext}", seq.name));
-    write_geo_rows(&geo_path, &geo_rows)?;
-    let mut ids: Vec<i64> = mot_rows.iter().map(|r| r.id).collect();
-    ids.sort_unstable();
-    ids.dedup();
+    let tracked = track_frames(&inputs, args.mode, params, progress)?;
+    let frames: Vec<FrameTime> = seq
+        .frames
+        .iter()
+        .map(|f| FrameTime {
+            frame_number: f.frame_number,
+            time_s: f.time_s,
+        })
+        .collect();
+    let written = write_results(
+        &args.out,
+        &seq.name,
+        &frames,
+        &tracked,
+        geolocator.as_ref().map(|g| g.reference()),
+        args.class_column,
+        args.geo_format,
+    )?;
     Ok(VideoSummary {
         video: seq.name.clone(),
         frames: inputs.len(),
         detections: n_dets,
         detections_geolocated: geolocated,
-        tracks: ids.len(),
-        track_boxes: mot_rows.len(),
-        mot_results: mot_path,
-        geo_tracks: geo_path,
-        merges,
+        tracks: written.tracks,
+        track_boxes: written.track_boxes,
+        mot_results: written.mot_results,
+        geo_tracks: written.geo_tracks,
+        merges: tracked.merges,
     })
-}
-
-/// A MOTChallenge results row: `frame,id,x,y,w,h,conf,class,-1` (class -1 when `class_id` is
-/// `None`).
-fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: Option<u32>) -> mot::MotRecord {
-    mot::MotRecord {
-        frame,
-        id: i64::try_from(id).unwrap_or(i64::MAX),
-        bbox: BoxXywh {
-            x: b.x,
-            y: b.y,
-            w: b.w,
-            h: b.h,
-        },
-        conf: f64::from(score),
-        class: class_id.map_or(-1, i64::from),
-        visibility: None,
-    }
 }

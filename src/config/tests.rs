@@ -480,3 +480,32 @@ fn frame_sources_print_as_check_config_shows_them() {
         "simulator socket /tmp/mgmot-sim.sock"
     );
 }
+
+#[test]
+fn recording_is_off_by_default_and_its_problems_name_their_keys() {
+    let off = Config::parse(MINIMAL).unwrap().validate().unwrap();
+    assert_eq!(off.recording, None);
+    let on = Config::parse(&format!(
+        "{MINIMAL}[recording]\ndir = \"/var/lib/mgmot/flights\"\n"
+    ))
+    .unwrap()
+    .validate()
+    .unwrap()
+    .recording
+    .unwrap();
+    assert_eq!(on.max_total_bytes, Some(4096 << 20));
+    assert_eq!(on.keyframe_every, Some(Duration::from_secs(10)));
+    let bad = format!(
+        "{MINIMAL}[recording]\ndir = \"\"\nmax_total_mb = 3\nkeyframe_every_s = 0.1\nkeyframe_width_px = 10\nqueue = 1\n"
+    );
+    assert_eq!(
+        problem_keys(&bad),
+        [
+            "recording.keyframe_every_s",
+            "recording.keyframe_width_px",
+            "recording.queue",
+            "recording.max_total_mb",
+            "recording.dir"
+        ]
+    );
+}

@@ -248,3 +248,91 @@ impl Flight {
         Ok(tlog::parse(&bytes))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::format::{DetectorIdentity, EndRecord};
+
+    fn info(started_unix_us: u64) -> FlightInfo {
+        FlightInfo {
+            format: FORMAT.into(),
+            version: VERSION,
+            mgmot_version: "test".into(),
+            started_utc: String::new(),
+            started_unix_us,
+            system_id: 7,
+            component_id: 191,
+            detector: DetectorIdentity {
+                kind: "onnx".into(),
+                file: "m.onnx".into(),
+                sha256: String::new(),
+                bytes: 0,
+            },
+            config_file: CONFIG.into(),
+        }
+    }
+
+    #[test]
+    fn folders_are_named_by_utc_start_and_system_id_and_never_reused() {
+        // 2026-12-01T21:38:21Z
+        let t = 1_796_161_101_000_000;
+        assert_eq!(folder_name(t, 7), "20261201T213821Z-sys7");
+        let root = tempfile::tempdir().unwrap();
+        let a = create(root.path(), &info(t), "").unwrap();
+        let b = create(root.path(), &info(t), "").unwrap();
+        assert_ne!(a.dir, b.dir);
+        assert!(b.dir.ends_with("20261201T213821Z-sys7-2"));
+        assert_eq!(list(root.path()), vec![a.dir, b.dir]);
+    }
+
+    #[test]
+    fn the_cap_deletes_the_oldest_other_flights_first() {
+        let root = tempfile::tempdir().unwrap();
+        let dirs: Vec<PathBuf> = (0..3)
+            .map(|i| {
+                let f = create(root.path(), &info(1_000_000_000 + i * 1_000_000), "").unwrap();
+                std::fs::write(f.dir.join(TLOG), vec![0u8; 10_000]).unwrap();
+                f.dir
+            })
+            .collect();
+        let current = &dirs[2];
+        // Room for the current flight and one more: the oldest goes.
+        let deleted = enforce_cap(root.path(), current, 10_000, 25_000).unwrap();
+        assert_eq!(deleted, vec![dirs[0].clone()]);
+        assert!(!dirs[0].exists() && dirs[1].exists() && current.exists());
+        // The current flight is never deleted, even when it alone is over the cap.
+        let deleted = enforce_cap(root.path(), current, 50_000, 25_000).unwrap();
+        assert_eq!(deleted, vec![dirs[1].clone()]);
+        assert!(current.exists());
+    }
+
+    #[test]
+    fn a_flight_reads_back_skipping_a_cut_line_and_refuses_a_foreign_folder() {
+        let root = tempfile::tempdir().unwrap();
+        let f = create(root.path(), &info(1), "[mavlink]\n").unwrap();
+        let end = Record::End(EndRecord {
+            unix_us: 5,
+            frames_written: 0,
+            frames_dropped_queue: 0,
+            packets_dropped_queue: 0,
+            frames_lost_stopped: 0,
+            keyframes: 0,
+            run_stats: None,
+        });
+        let mut text = serde_json::to_string(&end).unwrap();
+        text.push('\n');
+        text.push_str("{\"type\":\"frame\",\"frame\":1,\"ti");
+        std::fs::write(f.dir.join(FRAMES), text).unwrap();
+        let flight = Flight::load(&f.dir).unwrap();
+        assert_eq!(flight.bad_lines, vec![2]);
+        assert!(flight.end.is_some() && flight.frames.is_empty());
+        assert_eq!(flight.config_toml, "[mavlink]\n");
+        assert!(Flight::load(root.path()).is_err());
+        let mut other = info(1);
+        other.format = "something-else".into();
+        std::fs::write(f.dir.join(INFO), serde_json::to_string(&other).unwrap()).unwrap();
+        let e = Flight::load(&f.dir).unwrap_err().to_string();
+        assert!(e.contains("something-else"), "{e}");
+    }
+}

@@ -215,3 +215,22 @@ pub struct EndRecord {
     /// The run's counters (`RunStats`), when the pipeline returned them.
     pub run_stats: Option<serde_json::Value>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::attitude::camera_from_heading_pitch_deg;
+
+    #[test]
+    fn a_pose_survives_the_record_bit_for_bit() {
+        let meta = FrameMetadata {
+            position: Geodetic::new(47.672_956_123_456_78, 9.267_712_345_678_9, 431.123_456_789)
+                .unwrap(),
+            height_above_sea_m: 29.987_654_321,
+            camera_attitude: camera_from_heading_pitch_deg(123.456_789, 61.234_567, 0.1),
+        };
+        let line = serde_json::to_string(&PoseRecord::of(&meta)).unwrap();
+        let back: PoseRecord = serde_json::from_str(&line).unwrap();
+        assert_eq!(back.to_meta().unwrap(), meta);
+    }
+}

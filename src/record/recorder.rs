@@ -9,8 +9,8 @@
 //!   counted.
 //! - A write that fails (disk full, read-only, removed) stops recording: the files are cut
 //!   back to their last whole record, the failure is announced once (log and STATUSTEXT),
-//!   and every [`RETRY_EVERY`] a write is tried again; when it succeeds recording resumes,
-//!   with a [`GapRecord`] saying what was lost.
+//!   and every [`RETRY_EVERY`] a write is tried again once [`RESUME_FREE_BYTES`] are free;
+//!   when it succeeds recording resumes, with a [`GapRecord`] saying what was lost.
 //! - `recording.max_total_mb`: the oldest other flights are deleted to stay under the cap;
 //!   a flight that alone outgrows it stops recording, as above.
 
@@ -31,6 +31,9 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// How often a stopped recording tries to write again.
 pub const RETRY_EVERY: Duration = Duration::from_secs(5);
+/// A recording stopped by a full disk resumes only with this much free (so that it does not
+/// stop and resume, announcing both, every few seconds on a disk that is still nearly full).
+pub const RESUME_FREE_BYTES: u64 = 4 << 20;
 /// How often the size cap is checked.
 const CAP_CHECK_EVERY: Duration = Duration::from_secs(10);
 /// Longest wait for the queue before the files are synced anyway.
@@ -264,20 +267,29 @@ impl Writer {
     }
 
     fn write(&mut self, item: Item) {
+        let frame = matches!(item, Item::Frame(..));
+        let retrying = self.stopped.is_some();
         if let Some(s) = &mut self.stopped {
-            let retry = !s.by_cap && s.last_try.elapsed() >= RETRY_EVERY;
-            if !retry {
-                let frame = matches!(item, Item::Frame(..));
+            if s.by_cap || s.last_try.elapsed() < RETRY_EVERY {
                 self.lost(frame);
                 return;
             }
             s.last_try = Instant::now();
+            if free_bytes(&self.files.dir).is_some_and(|free| free < RESUME_FREE_BYTES) {
+                self.lost(frame);
+                return;
+            }
         }
-        let frame = matches!(item, Item::Frame(..));
         let result = match item {
             Item::Frame(record, keyframe) => self.write_frame(*record, keyframe),
             Item::Packet(at, bytes) => self.write_packet(at, &bytes),
             Item::Finish(_) => Ok(()),
+        };
+        // A retry counts only once its bytes are in the file, not in a buffer.
+        let result = if retrying {
+            result.and_then(|()| self.flush_tlog())
+        } else {
+            result
         };
         match result {
             Ok(()) => {
@@ -423,7 +435,8 @@ impl Writer {
         if let Ok(line) = record_line(&Record::Gap(gap)) {
             let _ = self.append_frames(&line);
         }
-        tracing::info!(
+        // A warning, as the stop was: the record has a hole.
+        tracing::warn!(
             frames_lost = s.frames_lost,
             packets_lost = s.packets_lost,
             "flight recording resumed"
@@ -460,6 +473,19 @@ impl Writer {
     }
 }
 
+/// Free bytes for an unprivileged writer on the file system of `dir` (`None`: unknown).
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let path = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    // SAFETY: an all-zero statvfs is a valid value for the call to overwrite.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    // SAFETY: `path` is a NUL-terminated string and `st` a valid, writable statvfs.
+    let rc = unsafe { libc::statvfs(path.as_ptr(), &mut st) };
+    // The field types differ between targets.
+    #[allow(clippy::unnecessary_cast, clippy::useless_conversion)]
+    (rc == 0).then(|| u64::from(st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
+}
+
 /// One record as a line (JSON and a newline).
 fn record_line(r: &Record) -> io::Result<Vec<u8>> {
     let mut line = serde_json::to_vec(r).map_err(io::Error::other)?;
@@ -473,4 +499,140 @@ pub(super) fn append(path: &Path) -> io::Result<File> {
         .create(true)
         .append(true)
         .open(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::format::{DetectorIdentity, FlightInfo, FORMAT, VERSION};
+    use crate::record::Flight;
+    use std::sync::Mutex;
+
+    fn settings(dir: &Path, queue: usize) -> RecordingSettings {
+        RecordingSettings {
+            dir: dir.to_owned(),
+            max_total_bytes: None,
+            keyframe_every: None,
+            keyframe_width_px: 64,
+            queue,
+        }
+    }
+
+    fn info() -> FlightInfo {
+        FlightInfo {
+            format: FORMAT.into(),
+            version: VERSION,
+            mgmot_version: "test".into(),
+            started_utc: String::new(),
+            started_unix_us: unix_us_now(),
+            system_id: 1,
+            component_id: 191,
+            detector: DetectorIdentity {
+                kind: "replay".into(),
+                file: "dets.json".into(),
+                sha256: String::new(),
+                bytes: 0,
+            },
+            config_file: "config.toml".into(),
+        }
+    }
+
+    fn frame(n: u64) -> FrameRecord {
+        FrameRecord {
+            frame: n,
+            time_s: n as f64 / 30.0,
+            autopilot_time_us: None,
+            captured_unix_us: None,
+            processed_unix_us: unix_us_now(),
+            width_px: 64,
+            height_px: 48,
+            pose: None,
+            no_pose: Some("test".into()),
+            water_amsl_m: None,
+            detections: Vec::new(),
+            tracks: Vec::new(),
+            merges: Vec::new(),
+            frames_dropped: 0,
+            keyframe: None,
+        }
+    }
+
+    #[test]
+    fn a_queue_faster_than_the_disk_drops_and_counts_records_and_never_blocks() {
+        let root = tempfile::tempdir().unwrap();
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let s = said.clone();
+        let rec = Recorder::start(
+            &settings(root.path(), 16),
+            &info(),
+            "",
+            Box::new(move |n| s.lock().unwrap().push(n.text)),
+        )
+        .unwrap();
+        let sink = rec.sink();
+        let started = Instant::now();
+        let heartbeat = [
+            0xFD, 9, 0, 0, 0, 1, 191, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 2,
+        ];
+        for n in 0..20_000 {
+            sink.packet(&heartbeat);
+            if n % 10 == 0 {
+                sink.frame(frame(n / 10), None);
+            }
+        }
+        // 22,000 records queued in far less than the disk could take one by one.
+        assert!(started.elapsed() < Duration::from_secs(2));
+        let dir = rec.dir().to_owned();
+        let end = rec.finish(None).unwrap();
+        assert_eq!(end.frames_written + end.frames_dropped_queue, 2_000);
+        assert!(end.packets_dropped_queue > 0, "{end:?}");
+        let flight = Flight::load(&dir).unwrap();
+        assert_eq!(flight.frames.len() as u64, end.frames_written);
+        assert_eq!(flight.end, Some(end.clone()));
+        let (packets, clean) = flight.tlog().unwrap();
+        assert!(clean);
+        assert_eq!(packets.len() as u64 + end.packets_dropped_queue, 20_000);
+        assert!(said.lock().unwrap().is_empty(), "nothing to announce");
+    }
+
+    #[test]
+    fn a_flight_over_the_cap_stops_recording_and_says_so_once() {
+        let root = tempfile::tempdir().unwrap();
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let s = said.clone();
+        let mut settings = settings(root.path(), 100_000);
+        settings.max_total_bytes = Some(200_000);
+        let rec = Recorder::start(
+            &settings,
+            &info(),
+            "",
+            Box::new(move |n| s.lock().unwrap().push(n.text)),
+        )
+        .unwrap();
+        let sink = rec.sink();
+        let big = vec![0xFDu8; 280];
+        // About 1.5 MB of packets over the 10 s cap check: the flight outgrows the cap.
+        for _ in 0..110 {
+            for _ in 0..50 {
+                let mut p = big.clone();
+                p[1] = 255;
+                p[2] = 0;
+                sink.packet(&p[..267]);
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let dir = rec.dir().to_owned();
+        rec.finish(None).unwrap();
+        let said = said.lock().unwrap().clone();
+        assert_eq!(said.len(), 1, "{said:?}");
+        assert!(said[0].contains("recording.max_total_mb"), "{said:?}");
+        let (packets, clean) = Flight::load(&dir).unwrap().tlog().unwrap();
+        assert!(clean);
+        // 5,500 sent over 11 s; the cap is checked every 10 s.
+        assert!(
+            packets.len() < 5_400,
+            "{} packets: recording went on",
+            packets.len()
+        );
+    }
 }

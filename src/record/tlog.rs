@@ -118,7 +118,8 @@ mod tests {
         );
         assert_eq!((entries[2].message_id(), entries[2].system_id()), (30, 1));
         assert_eq!(entries[2].unix_us, 1_700_000_000_000_003);
-        for cut in 1..20 {
+        // The last entry is 8 + 10 bytes: any cut inside it loses it alone.
+        for cut in 1..18 {
             let (e, clean) = parse(&out[..out.len() - cut]);
             assert!(!clean);
             assert_eq!(e.len(), 2, "cut {cut}");

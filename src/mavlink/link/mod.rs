@@ -123,7 +123,7 @@ pub struct LinkSettings {
     pub tap: Option<PacketTap>,
 }
 
-/// The callback of a [`PacketTap`].
+/// What a [`PacketTap`] calls.
 pub type TapFn = dyn Fn(&[u8]) + Send + Sync;
 
 /// Sees the raw bytes of every MAVLink frame in and out (must not block).
