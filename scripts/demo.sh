@@ -82,6 +82,9 @@ backend = "$backend"
 [tracker.baseline]
 # The shipped model's setting (systemd/mgmot.example.toml, models/README.md).
 track_high_thresh = 0.4
+[recording]
+dir = "$PWD/$dir/flights"
+keyframe_every_s = 5.0
 TOML
 echo
 echo "== live: mgmot-sim ($live_scenario, ${live_s} s real time, 1280x720 @ 30 fps) against mgmot run ($backend, $(basename "$model"))"
@@ -91,7 +94,7 @@ mgmot_pid=$!
 trap 'kill $mgmot_pid 2>/dev/null || true' EXIT
 $bin/mgmot-sim run --scenario "$live_scenario" --duration-s "$live_s" --realtime \
   --mavlink "udpout:127.0.0.1:$port" --frames "unix:$PWD/$dir/frames.sock" \
-  --track-report "$dir/track_report.json" 2>&1 | tee "$dir/sim.log" | grep --line-buffered "mgmot tracks" || true
+  --truth-out "$dir/truth" --track-report "$dir/track_report.json" 2>&1 | tee "$dir/sim.log" | grep --line-buffered "mgmot tracks" || true
 # mgmot stops by itself when the simulator closes the frame stream.
 for _ in $(seq 1 50); do kill -0 $mgmot_pid 2>/dev/null || break; sleep 0.2; done
 kill $mgmot_pid 2>/dev/null || true
@@ -116,4 +119,17 @@ try:
 except (OSError, ValueError, KeyError):
     print("mgmot: no stats written (see out/demo/live/mgmot.log)")
 PY
+# The flight mgmot recorded: replayed (online must reproduce it exactly) and reviewed against
+# the simulator's truth.
+flight=$(ls -d "$dir"/flights/*/ 2>/dev/null | head -n 1)
+if [ -z "$flight" ]; then
+  echo "mgmot recorded no flight (see $dir/mgmot.log)" >&2
+  exit 1
+fi
+echo
+echo "== the recorded flight: $flight"
+$bin/mgmot replay "$flight" --out "$dir/replay" | sed 's/^/replay: /'
+$bin/mgmot replay "$flight" --mode offline --out "$dir/replay-offline" >/dev/null
+$bin/mgmot review "$flight" --truth "$dir/truth" --out "$dir/report/report.html" | sed 's/^/review: /'
+echo "after-action report: $dir/report/report.html (open it in a browser; tracks.geojson and tracks.kml beside it)"
 echo "logs and reports: $dir/"
