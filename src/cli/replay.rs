@@ -3,7 +3,7 @@
 //! parameters it reproduces the flight's tracks exactly, and says whether it did.
 
 use super::stdout::Stdout;
-use super::track_output::{track_frames, write_results, FrameTime, GeoOut, Mode, Tracked};
+use super::track_output::{track_frames, write_results, FrameTime, Mode, ResultArgs, Tracked};
 use anyhow::{bail, Context};
 use clap::Args as ClapArgs;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -35,18 +35,9 @@ pub struct Args {
     /// instead of the flight's own (its config.toml's `[tracker]`).
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Write each track's class id in column 8 of the MOTChallenge results.
-    #[arg(long)]
-    class_column: bool,
-    /// Geo track file format.
-    #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
-    geo_format: GeoOut,
-    /// Output directory (created if missing).
-    #[arg(long)]
-    out: PathBuf,
-    /// Print the summary as JSON on stdout.
-    #[arg(long)]
-    json: bool,
+    /// Where and how the results are written.
+    #[command(flatten)]
+    results: ResultArgs,
 }
 
 /// How the replay compares with what was recorded in the air.
@@ -106,9 +97,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let (inputs, builder) = rebuild_inputs(&flight.frames, geo)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let progress = if args.json {
+    std::fs::create_dir_all(&args.results.out)
+        .with_context(|| format!("creating {}", args.results.out.display()))?;
+    let progress = if args.results.json {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(inputs.len() as u64)
@@ -129,13 +120,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
         .collect();
     let written = write_results(
-        &args.out,
+        &args.results.out,
         "flight",
         &frames,
         &tracked,
         builder.geolocator().map(|g| g.reference()),
-        args.class_column,
-        args.geo_format,
+        args.results.class_column,
+        args.results.geo_format,
     )?;
     // The end record counts every loss; without one (a crash) the gaps are what is known.
     let records_missing = match &flight.end {
@@ -164,11 +155,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mot_results: written.mot_results,
         geo_tracks: written.geo_tracks,
     };
-    let path = args.out.join("summary.json");
+    let path = args.results.out.join("summary.json");
     std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
         .with_context(|| format!("writing {}", path.display()))?;
     let mut stdout = Stdout::lock();
-    if args.json {
+    if args.results.json {
         writeln!(stdout, "{}", serde_json::to_string_pretty(&summary)?)?;
         return Ok(());
     }

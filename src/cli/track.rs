@@ -3,7 +3,7 @@
 
 use super::args::Finite;
 use super::stdout::Stdout;
-use super::track_output::{track_frames, write_results, FrameTime, GeoOut, Mode};
+use super::track_output::{track_frames, write_results, FrameTime, Mode, ResultArgs};
 use anyhow::{bail, Context};
 use clap::Args as ClapArgs;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -67,20 +67,9 @@ pub struct Args {
     #[arg(long, default_value_t = seadronessee::DEFAULT_VIDEO_FPS,
           value_parser = Finite::positive(MAX_FPS).f64())]
     fps: f64,
-    /// Write each track's class id in column 8 of the MOTChallenge results (for
-    /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
-    /// convention that TrackEval's MOT loader requires.
-    #[arg(long)]
-    class_column: bool,
-    /// Geo track file format.
-    #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
-    geo_format: GeoOut,
-    /// Output directory (created if missing).
-    #[arg(long)]
-    out: PathBuf,
-    /// Print the summary as JSON on stdout.
-    #[arg(long)]
-    json: bool,
+    /// Where and how the results are written.
+    #[command(flatten)]
+    results: ResultArgs,
 }
 
 /// Per-video outcome.
@@ -125,11 +114,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         check_output_name(&ds, seq)?;
     }
     let dets_by_image = load_detections(&args, &ds, &sequences)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.results.out)
+        .with_context(|| format!("creating {}", args.results.out.display()))?;
 
     let total_frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
-    let progress = if args.json {
+    let progress = if args.results.json {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(total_frames as u64)
@@ -157,14 +146,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     progress.finish_and_clear();
 
     let summary = serde_json::json!({ "mode": args.mode, "metadata": !args.no_metadata, "videos": summaries });
-    let summary_path = args.out.join("summary.json");
+    let summary_path = args.results.out.join("summary.json");
     std::fs::write(
         &summary_path,
         serde_json::to_string_pretty(&summary)? + "\n",
     )
     .with_context(|| format!("writing {}", summary_path.display()))?;
     let mut stdout = Stdout::lock();
-    if args.json {
+    if args.results.json {
         writeln!(stdout, "{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
         for s in &summaries {
@@ -383,13 +372,13 @@ fn track_video(
         })
         .collect();
     let written = write_results(
-        &args.out,
+        &args.results.out,
         &seq.name,
         &frames,
         &tracked,
         geolocator.as_ref().map(|g| g.reference()),
-        args.class_column,
-        args.geo_format,
+        args.results.class_column,
+        args.results.geo_format,
     )?;
     Ok(VideoSummary {
         video: seq.name.clone(),

@@ -36,6 +36,25 @@ pub(super) enum GeoOut {
     Geojson,
 }
 
+/// The flags of the results, shared by `mgmot track` and `mgmot replay`.
+#[derive(Debug, clap::Args)]
+pub(super) struct ResultArgs {
+    /// Write each track's class id in column 8 of the MOTChallenge results (for
+    /// `mgmot eval --per-class`). Off by default: column 8 is then -1, the MOTChallenge results
+    /// convention that TrackEval's MOT loader requires.
+    #[arg(long)]
+    pub class_column: bool,
+    /// Geo track file format.
+    #[arg(long, value_enum, default_value_t = GeoOut::Csv)]
+    pub geo_format: GeoOut,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
 /// Every reported track box of a sequence, with the position of its frame in the sequence,
 /// and the merges the online tracker decided.
 pub(super) struct Tracked {

@@ -103,6 +103,30 @@ pub struct FrameRecord {
     pub keyframe: Option<String>,
 }
 
+#[cfg(test)]
+impl FrameRecord {
+    /// A frame with nothing in it, for tests to fill in.
+    pub(crate) fn empty(frame: u64, width_px: u32, height_px: u32) -> Self {
+        Self {
+            frame,
+            time_s: 0.0,
+            autopilot_time_us: None,
+            captured_unix_us: None,
+            processed_unix_us: 0,
+            width_px,
+            height_px,
+            pose: None,
+            no_pose: None,
+            water_amsl_m: None,
+            detections: Vec::new(),
+            tracks: Vec::new(),
+            merges: Vec::new(),
+            frames_dropped: 0,
+            keyframe: None,
+        }
+    }
+}
+
 /// The camera pose of a frame: position and optical-frame -> NED attitude, exactly as the
 /// tracker's geolocation used it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

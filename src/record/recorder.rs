@@ -539,21 +539,10 @@ mod tests {
 
     fn frame(n: u64) -> FrameRecord {
         FrameRecord {
-            frame: n,
             time_s: n as f64 / 30.0,
-            autopilot_time_us: None,
-            captured_unix_us: None,
             processed_unix_us: unix_us_now(),
-            width_px: 64,
-            height_px: 48,
-            pose: None,
             no_pose: Some("test".into()),
-            water_amsl_m: None,
-            detections: Vec::new(),
-            tracks: Vec::new(),
-            merges: Vec::new(),
-            frames_dropped: 0,
-            keyframe: None,
+            ..FrameRecord::empty(n, 64, 48)
         }
     }
 

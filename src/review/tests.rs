@@ -10,21 +10,11 @@ use mavlink_core::{MavHeader, MavlinkVersion};
 
 fn frame(n: u64) -> FrameRecord {
     FrameRecord {
-        frame: n,
         time_s: n as f64 * 0.1,
         autopilot_time_us: Some(n * 100_000),
         captured_unix_us: Some(1_000_000_000_000_000 + n * 100_000),
         processed_unix_us: 1_000_000_000_000_000 + n * 100_000 + 50_000,
-        width_px: 1280,
-        height_px: 720,
-        pose: None,
-        no_pose: None,
-        water_amsl_m: None,
-        detections: Vec::new(),
-        tracks: Vec::new(),
-        merges: Vec::new(),
-        frames_dropped: 0,
-        keyframe: None,
+        ..FrameRecord::empty(n, 1280, 720)
     }
 }
 
