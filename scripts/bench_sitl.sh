@@ -111,6 +111,7 @@ model = "$repo/models/mgmot-det-fp32.onnx"
 backend = "$backend"
 EOF
 if [ "$backend" = onnxruntime ]; then echo "ort_library = \"$ort\"" >> "$out/mgmot.toml"; fi
+printf '\n[recording]\ndir = "%s/flights"\nkeyframe_every_s = 5.0\n' "$out" >> "$out/mgmot.toml"
 
 .venv/bin/python3 scripts/bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out "$out" &
 fly=$!
@@ -133,4 +134,13 @@ if [ "$fly_rc" -ne 0 ]; then echo "bench: the flight script failed (exit $fly_rc
 kill -INT "$mgmot" "$follow" 2>/dev/null || true
 wait "$mgmot" "$follow" 2>/dev/null || true
 .venv/bin/python3 scripts/bench_sitl_report.py "$out"
+# The flight mgmot recorded (its tlog holds ArduPilot's own packets): replayed, and reviewed
+# against the simulator's truth.
+flight=$(ls -d "$out"/flights/*/ 2>/dev/null | head -n 1)
+if [ -n "$flight" ]; then
+  target/release/mgmot replay "$flight" --out "$out/replay" | sed 's/^/replay: /'
+  target/release/mgmot review "$flight" --truth "$out/truth" --out "$out/report/report.html" | sed 's/^/review: /'
+else
+  echo "bench: mgmot recorded no flight (see $out/mgmot.log)" >&2
+fi
 exit "$fly_rc"
