@@ -57,6 +57,7 @@ fn track(
                 state: TrackState::Confirmed,
                 world: None,
                 detection_index: Some(det),
+                provisional: false,
             },
             geo: Some(GeoRecord {
                 lat_deg: g.lat_deg,

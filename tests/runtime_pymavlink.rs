@@ -32,6 +32,7 @@ fn pymavlink_decodes_mgmot_messages() {
             vel_e_mps: -2.0,
             h_std_m: 1.25,
         }),
+        provisional: false,
     };
     let header = MavHeader {
         system_id: 1,

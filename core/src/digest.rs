@@ -65,8 +65,12 @@ impl Digest {
     }
 
     /// Takes one track report; returns the "new object" text when this is the first
-    /// geolocated report of an object.
+    /// geolocated report of an object. Provisional reports are ignored: the track may still
+    /// turn out to be an object already announced.
     pub fn observe(&mut self, r: &TrackReport) -> Option<String> {
+        if r.provisional {
+            return None;
+        }
         let now = r.time.0;
         if let Some(old) = r.merged_from_id {
             // The same object under its older id: keep what was said about it.
@@ -194,6 +198,7 @@ mod tests {
                 vel_e_mps: 0.0,
                 h_std_m: 1.0,
             }),
+            provisional: false,
         }
     }
 

@@ -24,6 +24,9 @@ pub struct TrackReport {
     pub tracked: bool,
     /// Geolocation, when the frame had a usable pose.
     pub geo: Option<GeoFix>,
+    /// The track's ReID decision is pending and it may still become an older track
+    /// ([`TrackOutput::provisional`]).
+    pub provisional: bool,
 }
 
 /// How the operator selected the tracked target; the image status reports it the same way.
@@ -85,6 +88,7 @@ impl TrackReport {
             bbox_norm: normalised_box(&t.bbox, image_size_px),
             tracked: t.detection_index.is_some(),
             geo,
+            provisional: t.provisional,
         }
     }
 }

@@ -10,6 +10,7 @@ mod detect;
 mod eval;
 mod firmware_check;
 mod geolocate;
+mod oracle;
 mod replay;
 mod review;
 mod run;
@@ -48,6 +49,8 @@ enum Command {
     Review(review::Args),
     /// Re-run tracking over a recorded flight (online reproduces it; offline post-processes).
     Replay(replay::Args),
+    /// Label detections with their true ids: the identity ceiling for tracking benchmarks.
+    Oracle(oracle::Args),
 }
 
 /// Parses the command line, sets up logging and runs the chosen subcommand.
@@ -64,6 +67,7 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Review(args) => review::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Oracle(args) => oracle::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

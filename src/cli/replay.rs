@@ -109,7 +109,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
             .progress_chars("=> "),
     );
-    let tracked = track_frames(&inputs, args.mode, &params, &progress)?;
+    let tracked = track_frames(
+        &inputs,
+        args.mode,
+        &params,
+        args.results.withhold_provisional,
+        &progress,
+    )?;
     progress.finish_and_clear();
     let frames: Vec<FrameTime> = flight
         .frames
@@ -150,7 +156,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         records_missing,
         bad_lines: flight.bad_lines.clone(),
         ended_cleanly: flight.end.is_some(),
-        reproduces_recording: (own_parameters && args.mode == Mode::Online)
+        reproduces_recording: (own_parameters
+            && args.mode == Mode::Online
+            && !args.results.withhold_provisional)
             .then(|| compare(&flight.frames, &tracked)),
         mot_results: written.mot_results,
         geo_tracks: written.geo_tracks,

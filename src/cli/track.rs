@@ -362,7 +362,13 @@ fn track_video(
         previous = geometry;
     }
 
-    let tracked = track_frames(&inputs, args.mode, params, progress)?;
+    let tracked = track_frames(
+        &inputs,
+        args.mode,
+        params,
+        args.results.withhold_provisional,
+        progress,
+    )?;
     let frames: Vec<FrameTime> = seq
         .frames
         .iter()

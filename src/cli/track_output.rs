@@ -53,6 +53,12 @@ pub(super) struct ResultArgs {
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Online mode: leave provisional tracks out of the results (a new track whose ReID
+    /// decision is pending while an ended track of its class is within the ReID gate), as
+    /// an operator display that hides them shows the flight. Default: every confirmed track,
+    /// the paper's convention.
+    #[arg(long)]
+    pub withhold_provisional: bool,
 }
 
 /// Every reported track box of a sequence, with the position of its frame in the sequence,
@@ -67,6 +73,7 @@ pub(super) fn track_frames(
     inputs: &[FrameInput],
     mode: Mode,
     params: &TrackerParams,
+    withhold_provisional: bool,
     progress: &ProgressBar,
 ) -> anyhow::Result<Tracked> {
     let mut boxes: Vec<(usize, SequenceTrack)> = Vec::new();
@@ -76,7 +83,11 @@ pub(super) fn track_frames(
             let mut tracker = Tracker::new(params.clone())?;
             for (pos, input) in inputs.iter().enumerate() {
                 let out = tracker.step(input)?;
-                boxes.extend(out.tracks.iter().map(|t| {
+                let shown = out
+                    .tracks
+                    .iter()
+                    .filter(|t| !(withhold_provisional && t.provisional));
+                boxes.extend(shown.map(|t| {
                     let st = SequenceTrack {
                         id: t.id,
                         bbox: t.bbox,

@@ -148,6 +148,9 @@ pub fn mgmot_track(r: &TrackReport) -> MavMessage {
     if r.merged_from_id.is_some() {
         flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_MERGED;
     }
+    if r.provisional {
+        flags |= MgmotTrackFlags::MGMOT_TRACK_FLAGS_PROVISIONAL;
+    }
     let object_class = match r.class_id {
         1 => MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER,
         2 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BOAT,
@@ -383,6 +386,7 @@ mod tests {
                 vel_e_mps: -0.1,
                 h_std_m: 1.5,
             }),
+            provisional: false,
         }
     }
 

@@ -64,6 +64,7 @@ mod assignment;
 mod clear;
 mod hota;
 mod identity;
+pub mod oracle;
 mod pair_table;
 mod sequence;
 mod similarity;

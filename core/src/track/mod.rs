@@ -33,7 +33,9 @@ pub use kalman::BoxKalman;
 pub use nms::nms_prefer_larger;
 pub use offline::{track_sequence, SequenceFrame, SequenceResult, SequenceTrack};
 pub use online::Tracker;
-pub use params::{BaselineParams, ClassReidParams, OfflineParams, ReidParams, TrackerParams};
+pub use params::{
+    BaselineParams, ClassReidParams, LongTermGate, OfflineParams, ReidParams, TrackerParams,
+};
 pub use types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
 pub use world::{WorldFilter, WorldObservation, WorldState};
 

@@ -7,9 +7,9 @@ use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
 use super::bbox::BBox;
-use super::online::{add_vote, majority_class, Tracker};
+use super::online::{add_vote, majority_class, track_end, Tracker};
 use super::params::TrackerParams;
-use super::reid::{associate_exits_to_entries_where, window_velocity, TrackEnd};
+use super::reid::associate_exits_to_entries_where;
 use super::types::FrameInput;
 use super::world::WorldState;
 use super::TrackError;
@@ -126,37 +126,34 @@ pub fn track_sequence(
         let mut entry_ids = Vec::new();
         for (&id, points) in &tracklets {
             let class_id = tracklet_class(points);
-            let observed: Vec<(f64, Vector2<f64>)> = points
+            let worlds: Vec<(usize, WorldState)> = points
                 .iter()
-                .filter_map(|p| p.obs_ne_m.map(|o| (frames[p.pos].time_s, o)))
+                .filter(|p| !p.interpolated)
+                .filter_map(|p| p.world.map(|w| (p.pos, w)))
                 .collect();
-            let (Some(&first), Some(&last)) = (observed.first(), observed.last()) else {
+            let (Some(&(first_pos, _)), Some(&(last_pos, last))) = (worlds.first(), worlds.last())
+            else {
                 continue;
             };
-            let last_point = points.iter().rev().find(|p| p.obs_ne_m.is_some());
+            let last_point = points.iter().rev().find(|p| p.pos == last_pos);
             let left_view = last_point.is_some_and(|p| {
                 p.bbox.touches_border(
                     frames[p.pos].image_size_px,
                     params.reid.exit_border_fraction,
                 )
             });
-            let earlier = observed[observed.len().saturating_sub(window + 1)];
-            exits.push(TrackEnd {
+            exits.push(track_end(
                 class_id,
-                time_s: last.0,
-                pos_ne_m: last.1,
-                vel_ne_m_s: window_velocity(earlier, last),
+                frames[last_pos].time_s,
+                &last,
                 left_view,
-            });
+            ));
             exit_ids.push(id);
-            let later = observed[window.min(observed.len() - 1)];
-            entries.push(TrackEnd {
-                class_id,
-                time_s: first.0,
-                pos_ne_m: first.1,
-                vel_ne_m_s: window_velocity(first, later),
-                left_view: false,
-            });
+            // The entry as online takes it: the world state w observations in (or the last
+            // one of a shorter tracklet), when the velocity has settled.
+            let (entry_pos, entry) = worlds[window.min(worlds.len() - 1)];
+            let _ = first_pos;
+            entries.push(track_end(class_id, frames[entry_pos].time_s, &entry, false));
             entry_ids.push(id);
             spans.push((
                 points.first().map_or(0, |p| p.pos),

@@ -1,18 +1,16 @@
 //! The online tracker: BoT-SORT-style association per frame plus MG-MOT ReID, decided once a
 //! new track has lived `w` frames and reported as a merge event.
 
-use std::collections::VecDeque;
-
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Vector2};
 
 use super::assign::{apply_gate, solve_gated};
 use super::bbox::BBox;
 use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
 use super::params::TrackerParams;
-use super::reid::{associate_exits_to_entries_where, window_velocity, TrackEnd};
+use super::reid::{associate_exits_to_entries_where, within_gate, TrackEnd};
 use super::types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
-use super::world::{WorldFilter, WorldObservation};
+use super::world::{WorldFilter, WorldObservation, WorldState};
 use super::TrackError;
 
 /// Where a live track is in the BoT-SORT life cycle.
@@ -46,10 +44,6 @@ struct Track {
     end_frame: u64,
     /// World position/velocity filter, from the first world observation on.
     world: Option<WorldFilter>,
-    /// First `w + 1` world observations `(time_s, pos)`: entry position and velocity.
-    head: Vec<(f64, Vector2<f64>)>,
-    /// Last `w + 1` world observations: exit position and velocity.
-    tail: VecDeque<(f64, Vector2<f64>)>,
     /// Last matched detection box and the image size it was seen in (did it leave the view?).
     last_bbox: BBox,
     /// Image size of the frame `last_bbox` was seen in.
@@ -65,32 +59,43 @@ impl Track {
         majority_class(&self.class_votes)
     }
 
-    /// The track's exit as seen by ReID, if it has world observations.
-    fn exit(&self, window: usize, border_fraction: f64) -> Option<TrackEnd> {
-        let last = *self.tail.back()?;
-        let earlier = self.tail[self.tail.len().saturating_sub(window + 1)];
-        Some(TrackEnd {
-            class_id: self.class_id(),
-            time_s: last.0,
-            pos_ne_m: last.1,
-            vel_ne_m_s: window_velocity(earlier, last),
-            left_view: self
-                .last_bbox
+    /// The track's exit as seen by ReID: its world filter's state at the last observation,
+    /// if it has had world observations.
+    fn exit(&self, border_fraction: f64) -> Option<TrackEnd> {
+        let w = self.world.as_ref()?;
+        Some(track_end(
+            self.class_id(),
+            w.time_s(),
+            w.state(),
+            self.last_bbox
                 .touches_border(self.last_image_size_px, border_fraction),
-        })
+        ))
     }
 
-    /// The track's entry as seen by ReID, if it has world observations.
-    fn entry(&self, window: usize) -> Option<TrackEnd> {
-        let first = *self.head.first()?;
-        let later = self.head[window.min(self.head.len() - 1)];
-        Some(TrackEnd {
-            class_id: self.class_id(),
-            time_s: first.0,
-            pos_ne_m: first.1,
-            vel_ne_m_s: window_velocity(first, later),
-            left_view: false,
-        })
+    /// The track's entry as seen by ReID: its world filter's state now (when the ReID
+    /// decision is taken, `w` frames after the track started, so the velocity has had
+    /// those observations to settle).
+    fn entry(&self) -> Option<TrackEnd> {
+        let w = self.world.as_ref()?;
+        Some(track_end(self.class_id(), w.time_s(), w.state(), false))
+    }
+}
+
+/// A [`TrackEnd`] from a world state at `time_s`.
+pub(crate) fn track_end(
+    class_id: u32,
+    time_s: f64,
+    state: &WorldState,
+    left_view: bool,
+) -> TrackEnd {
+    TrackEnd {
+        class_id,
+        time_s,
+        pos_ne_m: state.pos_ne_m,
+        vel_ne_m_s: state.vel_ne_m_s,
+        pos_cov_m2: state.pos_cov_m2(),
+        vel_cov_m2_s2: state.cov.fixed_view::<2, 2>(2, 2).into_owned(),
+        left_view,
     }
 }
 
@@ -217,6 +222,7 @@ impl Tracker {
                     .as_ref()
                     .map(|w| w.predicted(self.last_time_s, accel)),
                 detection_index: t.matched_det,
+                provisional: false,
             }
         })
     }
@@ -268,6 +274,7 @@ impl Tracker {
                 state: TrackState::Confirmed,
                 world: t.world.as_ref().map(|w| *w.state()),
                 detection_index: t.matched_det,
+                provisional: self.is_provisional(t),
             })
             .collect();
         tracks.sort_by_key(|t| t.id);
@@ -276,6 +283,19 @@ impl Tracker {
             tracks,
             merges,
         })
+    }
+
+    /// Whether a reported track is provisional (see [`TrackOutput::provisional`]).
+    fn is_provisional(&self, t: &Track) -> bool {
+        if t.reid_decided || !self.params.reid.enabled || self.memory.is_empty() {
+            return false;
+        }
+        let Some(entry) = t.entry() else {
+            return false;
+        };
+        self.memory
+            .iter()
+            .any(|m| m.end_frame < t.start_frame && within_gate(&m.exit, &entry, &self.params.reid))
     }
 
     /// Ends the sequence: tracks younger than `w` frames get their ReID decision now (with
@@ -359,6 +379,12 @@ impl Tracker {
         rows.retain(|&i| !self.scratch.track_matched[i] && self.tracks[i].phase == Phase::Tracked);
         let low = std::mem::take(&mut self.scratch.low);
         self.match_stage(&rows, &low, dets, b.second_match_thresh, false, input);
+
+        // Stage 2b (metadata): what is left, by world position.
+        if let Some(gate) = b.world_gate_chi2 {
+            self.world_stage(&high, &low, dets, gate, input);
+        }
+        rows.retain(|&i| !self.scratch.track_matched[i] && self.tracks[i].phase == Phase::Tracked);
         for &i in &rows {
             if !self.scratch.track_matched[i] {
                 self.mark_lost(i);
@@ -408,20 +434,16 @@ impl Tracker {
                 start_frame: input.frame_index,
                 end_frame: input.frame_index,
                 world: None,
-                head: Vec::new(),
-                tail: VecDeque::new(),
                 last_bbox: dets[j].bbox,
                 last_image_size_px: input.image_size_px,
                 reid_decided: false,
                 matched_det: Some(j),
             };
             add_vote(&mut t.class_votes, dets[j].class_id);
-            let window = self.params.reid.window_frames as usize;
             record_world(
                 &mut t,
                 dets[j].world.as_ref(),
                 input.time_s,
-                window,
                 self.params.baseline.world_accel_std_m_s2,
             );
             self.tracks.push(t);
@@ -476,8 +498,68 @@ impl Tracker {
         self.scratch.pairs = pairs;
     }
 
+    /// Matches the detections no IoU stage took to the confirmed and lost tracks no stage
+    /// matched, by the squared Mahalanobis distance of the detection's sea-surface position
+    /// from the track's predicted world position, gated at `gate_chi2`; tracks and
+    /// detections of different classes are never paired.
+    fn world_stage(
+        &mut self,
+        high: &[usize],
+        low: &[usize],
+        dets: &[Detection],
+        gate_chi2: f64,
+        input: &FrameInput,
+    ) {
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        let rows: Vec<(usize, WorldState, u32)> = (0..self.tracks.len())
+            .filter(|&i| !self.scratch.track_matched[i])
+            .filter_map(|i| {
+                let t = &self.tracks[i];
+                let pooled = t.phase == Phase::Lost || (t.phase == Phase::Tracked && t.activated);
+                let w = t.world.as_ref().filter(|_| pooled)?;
+                Some((i, w.predicted(input.time_s, accel), t.class_id()))
+            })
+            .collect();
+        if rows.is_empty() {
+            return;
+        }
+        let cols: Vec<usize> = high
+            .iter()
+            .chain(low)
+            .copied()
+            .filter(|&j| !self.scratch.det_used[j] && dets[j].world.is_some())
+            .collect();
+        if cols.is_empty() {
+            return;
+        }
+        let s = &mut self.scratch;
+        s.cost.clear();
+        for (_, state, class_id) in &rows {
+            for &j in &cols {
+                let c = match &dets[j].world {
+                    Some(obs) if dets[j].class_id == *class_id => mahalanobis2(
+                        obs.pos_ne_m - state.pos_ne_m,
+                        state.pos_cov_m2() + obs.cov_ne_m2,
+                    )
+                    .filter(|&d2| d2 <= gate_chi2)
+                    .unwrap_or(f64::INFINITY),
+                    _ => f64::INFINITY,
+                };
+                s.cost.push(c);
+            }
+        }
+        let mut pairs = std::mem::take(&mut s.pairs);
+        solve_gated(rows.len(), cols.len(), &mut s.cost, &mut pairs);
+        for &(r, c) in &pairs {
+            let (i, j) = (rows[r].0, cols[c]);
+            self.scratch.track_matched[i] = true;
+            self.scratch.det_used[j] = true;
+            self.update_track(i, j, &dets[j], input);
+        }
+        self.scratch.pairs = pairs;
+    }
+
     fn update_track(&mut self, i: usize, j: usize, det: &Detection, input: &FrameInput) {
-        let window = self.params.reid.window_frames as usize;
         let accel = self.params.baseline.world_accel_std_m_s2;
         let t = &mut self.tracks[i];
         let was_lost = t.phase == Phase::Lost;
@@ -490,7 +572,7 @@ impl Tracker {
         t.last_image_size_px = input.image_size_px;
         t.matched_det = Some(j);
         add_vote(&mut t.class_votes, det.class_id);
-        record_world(t, det.world.as_ref(), input.time_s, window, accel);
+        record_world(t, det.world.as_ref(), input.time_s, accel);
         if was_lost {
             let uid = t.uid;
             self.memory.retain(|m| m.uid != uid);
@@ -504,7 +586,7 @@ impl Tracker {
         if !reid.enabled {
             return;
         }
-        if let Some(exit) = t.exit(reid.window_frames as usize, reid.exit_border_fraction) {
+        if let Some(exit) = t.exit(reid.exit_border_fraction) {
             self.memory.push(MemoryEntry {
                 uid: t.uid,
                 id: t.id,
@@ -555,7 +637,6 @@ impl Tracker {
     /// bank.
     fn online_reid(&mut self, frame_index: u64, force: bool, merges: &mut Vec<MergeEvent>) {
         let w = u64::from(self.params.reid.window_frames);
-        let window = self.params.reid.window_frames as usize;
         let mut cand = Vec::new();
         let mut cand_start = Vec::new();
         let mut entries = Vec::new();
@@ -567,7 +648,7 @@ impl Tracker {
                 continue;
             }
             t.reid_decided = true;
-            if let Some(e) = t.entry(window) {
+            if let Some(e) = t.entry() {
                 cand.push(k);
                 cand_start.push(t.start_frame);
                 entries.push(e);
@@ -619,14 +700,15 @@ impl Tracker {
     }
 }
 
-/// Feeds a matched detection's world observation to the track's world filter and history.
-fn record_world(
-    t: &mut Track,
-    obs: Option<&WorldObservation>,
-    time_s: f64,
-    window: usize,
-    accel_std_m_s2: f64,
-) {
+/// Squared Mahalanobis distance `d^T S^-1 d`; `None` when `S` is singular or the result is
+/// not finite.
+pub(crate) fn mahalanobis2(d: Vector2<f64>, s: Matrix2<f64>) -> Option<f64> {
+    let d2 = d.dot(&(s.try_inverse()? * d));
+    (d2.is_finite() && d2 >= 0.0).then_some(d2)
+}
+
+/// Feeds a matched detection's world observation to the track's world filter.
+fn record_world(t: &mut Track, obs: Option<&WorldObservation>, time_s: f64, accel_std_m_s2: f64) {
     let Some(obs) = obs else {
         return;
     };
@@ -641,13 +723,6 @@ fn record_world(
         }
         None => t.world = Some(WorldFilter::initiate(obs, time_s)),
     }
-    if t.head.len() <= window {
-        t.head.push((time_s, obs.pos_ne_m));
-    }
-    if t.tail.len() > window {
-        t.tail.pop_front();
-    }
-    t.tail.push_back((time_s, obs.pos_ne_m));
 }
 
 #[cfg(test)]

@@ -19,10 +19,11 @@
 
 use std::collections::BTreeSet;
 
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Vector2};
 
 use super::assign::solve_gated;
-use super::params::ReidParams;
+use super::online::mahalanobis2;
+use super::params::{ClassReidParams, LongTermGate, ReidParams};
 
 /// One end of a track as seen by ReID: where and when it was last (exit) or first (entry)
 /// observed on the sea, and its velocity over the window `w` there.
@@ -36,6 +37,10 @@ pub struct TrackEnd {
     pub pos_ne_m: Vector2<f64>,
     /// Velocity at that end over the window w, m/s (Eq. 8).
     pub vel_ne_m_s: Vector2<f64>,
+    /// Covariance of `pos_ne_m`, m^2 (the world filter's at that end).
+    pub pos_cov_m2: Matrix2<f64>,
+    /// Covariance of `vel_ne_m_s`, m^2/s^2.
+    pub vel_cov_m2_s2: Matrix2<f64>,
     /// For an exit: whether the track's last box touched the image border (it left the view;
     /// only long-term ReID applies). Ignored for entries.
     pub left_view: bool,
@@ -132,6 +137,37 @@ pub fn expanded_match_threshold(
     expanded.max(tau_match_m).min(max_gate_m.max(tau_match_m))
 }
 
+/// Long-term cost under the Mahalanobis gate (see [`LongTermGate::Mahalanobis`]): the BiME
+/// residual `d` between the exit extrapolated forward and the entry extrapolated backward
+/// (each by at most `tau_memory_s`), its covariance
+/// `S = P_exit + P_entry + dt_exit^2 V_exit + dt_entry^2 V_entry + (diffusion * gap + bias^2) I`
+/// (`dt` the capped extrapolation times), and the cost `d^T S^-1 d`. `None` when
+/// `d^T S^-1 d > gate_chi2` or `|d| > max_gate_m`.
+pub fn mahalanobis_long_term_cost(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    class: &ClassReidParams,
+    gate_chi2: f64,
+) -> Option<f64> {
+    let bime = extrapolate_bidirectional(exit, entry, class.tau_memory_s);
+    let gap = (entry.time_s - exit.time_s).max(0.0);
+    let (te, tn) = (
+        bime.dt_exit_s.min(class.tau_memory_s),
+        bime.dt_entry_s.min(class.tau_memory_s),
+    );
+    let spread = class.diffusion_m2_s * gap + class.view_bias_m * class.view_bias_m;
+    let s = exit.pos_cov_m2
+        + entry.pos_cov_m2
+        + exit.vel_cov_m2_s2 * (te * te)
+        + entry.vel_cov_m2_s2 * (tn * tn)
+        + Matrix2::identity() * spread;
+    let d = bime.exit_forward_ne_m - bime.entry_backward_ne_m;
+    if d.norm() > class.max_gate_m {
+        return None;
+    }
+    mahalanobis2(d, s).filter(|&d2| d2 <= gate_chi2)
+}
+
 /// Short-term ReID cost, Eq. 6: `|| X_t_exit_i - X_t_entry_j ||`, m.
 pub fn short_term_cost(exit: &TrackEnd, entry: &TrackEnd) -> f64 {
     (exit.pos_ne_m - entry.pos_ne_m).norm()
@@ -142,6 +178,49 @@ pub fn short_term_cost(exit: &TrackEnd, entry: &TrackEnd) -> f64 {
 fn may_link(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
     let gap = entry.time_s - exit.time_s;
     exit.class_id == entry.class_id && gap > 0.0 && gap <= params.memory_max_s
+}
+
+/// Whether ReID could link this exit to this entry at all: the pair passes the short-term
+/// gate (exits lost inside the view) or the long-term one.
+pub fn within_gate(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
+    if !params.enabled || !may_link(exit, entry, params) {
+        return false;
+    }
+    let cp = params.class(exit.class_id);
+    if params.short_term && !exit.left_view && short_term_cost(exit, entry) <= cp.tau_match_m {
+        return true;
+    }
+    params.long_term && long_term_cost(exit, entry, cp, params).is_finite()
+}
+
+/// The long-term cost of a pair under `params.long_term_gate`, infinite outside the gate.
+fn long_term_cost(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    cp: &ClassReidParams,
+    params: &ReidParams,
+) -> f64 {
+    match params.long_term_gate {
+        LongTermGate::Mahalanobis => {
+            mahalanobis_long_term_cost(exit, entry, cp, params.gate_chi2).unwrap_or(f64::INFINITY)
+        }
+        LongTermGate::Mte => {
+            let bime = extrapolate_bidirectional(exit, entry, cp.tau_memory_s);
+            let gate = expanded_match_threshold(
+                cp.tau_match_m,
+                cp.lambda_per_s,
+                bime.dt_exit_s,
+                bime.dt_entry_s,
+                cp.max_gate_m,
+            );
+            let d = bime.distance_m();
+            if d <= gate {
+                d
+            } else {
+                f64::INFINITY
+            }
+        }
+    }
 }
 
 /// Links exits to entries: short-term then long-term ReID, one Hungarian assignment per
@@ -197,20 +276,7 @@ pub fn associate_exits_to_entries_where(
                     let c = if !may_link(x, y, params) || !allowed(i, j) {
                         f64::INFINITY
                     } else if long_term {
-                        let bime = extrapolate_bidirectional(x, y, cp.tau_memory_s);
-                        let gate = expanded_match_threshold(
-                            cp.tau_match_m,
-                            cp.lambda_per_s,
-                            bime.dt_exit_s,
-                            bime.dt_entry_s,
-                            cp.max_gate_m,
-                        );
-                        let d = bime.distance_m();
-                        if d <= gate {
-                            d
-                        } else {
-                            f64::INFINITY
-                        }
+                        long_term_cost(x, y, cp, params)
                     } else {
                         let d = short_term_cost(x, y);
                         if d <= cp.tau_match_m {
@@ -222,8 +288,25 @@ pub fn associate_exits_to_entries_where(
                     cost.push(c);
                 }
             }
-            solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
-            for &(r, c) in &pairs {
+            // Under the probabilistic gate "this entry is a new object" is a hypothesis too,
+            // priced at the gate: one extra row per entry, usable by that entry only, so the
+            // solver never links a pair just to match more pairs.
+            let probabilistic = long_term && params.long_term_gate == LongTermGate::Mahalanobis;
+            let mut n_rows = rows.len();
+            if probabilistic {
+                for k in 0..cols.len() {
+                    cost.extend((0..cols.len()).map(|j| {
+                        if j == k {
+                            params.gate_chi2
+                        } else {
+                            f64::INFINITY
+                        }
+                    }));
+                }
+                n_rows += cols.len();
+            }
+            solve_gated(n_rows, cols.len(), &mut cost, &mut pairs);
+            for &(r, c) in pairs.iter().filter(|&&(r, _)| r < rows.len()) {
                 let (i, j) = (rows[r], cols[c]);
                 exit_used[i] = true;
                 entry_used[j] = true;
@@ -247,6 +330,8 @@ mod tests {
             time_s: t,
             pos_ne_m: Vector2::new(n, e),
             vel_ne_m_s: Vector2::new(vn, ve),
+            pos_cov_m2: Matrix2::identity(),
+            vel_cov_m2_s2: Matrix2::identity() * 0.01,
             left_view: left,
         }
     }
@@ -329,7 +414,10 @@ mod tests {
 
     #[test]
     fn left_view_needs_long_term_and_gate_expands_with_gap() {
-        let mut p = ReidParams::default();
+        let mut p = ReidParams {
+            long_term_gate: LongTermGate::Mte,
+            ..ReidParams::default()
+        };
         // swimmer leaves the view, comes back 60 s later 12 m away (no usable velocity)
         let exits = [end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true)];
         let entries = [end(1, 60.0, 12.0, 0.0, 0.0, 0.0, false)];
@@ -344,6 +432,47 @@ mod tests {
         p.long_term = true;
         let entries = [end(1, 2.0, 12.0, 0.0, 0.0, 0.0, false)];
         assert!(associate_exits_to_entries(&exits, &entries, &p).is_empty());
+    }
+
+    #[test]
+    fn mahalanobis_gate_grows_with_the_gap_and_prices_a_new_object() {
+        let p = ReidParams::default();
+        let cp = *p.class(1);
+        // A swimmer seen again 20 m away: after 2 s that is far outside the spread, after
+        // 60 s (diffusion 1 m^2/s: 60 m^2 per axis) it is well inside.
+        let x = end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true);
+        let soon = end(1, 2.0, 20.0, 0.0, 0.0, 0.0, false);
+        let late = end(1, 60.0, 20.0, 0.0, 0.0, 0.0, false);
+        assert!(mahalanobis_long_term_cost(&x, &soon, &cp, p.gate_chi2).is_none());
+        let d2 = mahalanobis_long_term_cost(&x, &late, &cp, p.gate_chi2).unwrap();
+        // S = 2 I (positions) + 0.01 * 2 * (2 s)^2 I (velocities) + (60 + 4) I
+        let var = 2.0 + 0.01 * 4.0 * 2.0 + 60.0 + cp.view_bias_m * cp.view_bias_m;
+        assert_relative_eq!(d2, 400.0 / var, epsilon = 1e-9);
+        assert!(within_gate(&x, &late, &p) && !within_gate(&x, &soon, &p));
+        // beyond max_gate_m nothing links, however long the gap
+        let far = end(1, 500.0, cp.max_gate_m + 1.0, 0.0, 0.0, 0.0, false);
+        assert!(mahalanobis_long_term_cost(&x, &far, &cp, 1e9).is_none());
+    }
+
+    #[test]
+    fn the_new_object_hypothesis_stops_forced_links() {
+        // 30 s gap, variance 36.08 m^2 per axis. Entry 0 fits exit 0 (d^2 0.03) and, barely,
+        // exit 1 (19.9); entry 1 fits exit 0 only (10.0). Linking both (29.9) costs more
+        // than entry 0 -> exit 0 plus "entry 1 is a new object" (0.03 + 25): a
+        // count-maximising assignment would link both and get entry 0 wrong.
+        let p = ReidParams::default();
+        let exits = [
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
+            end(1, 0.0, 27.8, 0.0, 0.0, 0.0, true),
+        ];
+        let entries = [
+            end(1, 30.0, 1.0, 0.0, 0.0, 0.0, false),
+            end(1, 30.0, -19.0, 0.0, 0.0, 0.0, false),
+        ];
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p),
+            vec![(0, 0)]
+        );
     }
 
     proptest! {

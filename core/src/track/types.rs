@@ -73,6 +73,12 @@ pub struct TrackOutput {
     /// Index into [`FrameInput::detections`] of the detection matched in this frame. Always
     /// set in [`FrameOutput::tracks`]; `None` for lost tracks from `Tracker::live_tracks`.
     pub detection_index: Option<usize>,
+    /// The track is new and may still turn out to be a track the memory bank holds: its
+    /// ReID decision is pending (it has lived fewer than `reid.window_frames` frames) and
+    /// some ended track of its class is within the ReID gate. Its id may still change to
+    /// the old one; an operator display should not show it as a new object yet.
+    #[serde(default)]
+    pub provisional: bool,
 }
 
 /// An online ReID decision: a new track turned out to be an old one.
