@@ -257,6 +257,38 @@ impl PathGeom {
                 }
                 PathGeom::polyline(pts, false)
             }
+            Path2d::ExpandingSquare {
+                datum_ne_m,
+                first_heading_deg,
+                spacing_m,
+                legs,
+                clockwise,
+            } => PathGeom::polyline(
+                expanding_square_points(
+                    *datum_ne_m,
+                    *first_heading_deg,
+                    *spacing_m,
+                    *legs,
+                    *clockwise,
+                ),
+                false,
+            ),
+            Path2d::Sector {
+                datum_ne_m,
+                radius_m,
+                first_heading_deg,
+                patterns,
+                clockwise,
+            } => PathGeom::polyline(
+                sector_points(
+                    *datum_ne_m,
+                    *radius_m,
+                    *first_heading_deg,
+                    *patterns,
+                    *clockwise,
+                ),
+                false,
+            ),
         }
     }
 
@@ -303,6 +335,60 @@ impl PathGeom {
             }
         }
     }
+}
+
+/// The point `dist_m` from `from` along bearing `bearing_deg`.
+fn along(from: [f64; 2], bearing_deg: f64, dist_m: f64) -> [f64; 2] {
+    let b = bearing_deg.to_radians();
+    [from[0] + dist_m * b.cos(), from[1] + dist_m * b.sin()]
+}
+
+/// Corners of an IAMSAR expanding square search: from the datum, leg `i` (0-based) is
+/// `(i / 2 + 1) * spacing_m` long on bearing `first_heading_deg +- 90 * i` (+ when
+/// `clockwise`). Returns `legs + 1` points.
+pub(crate) fn expanding_square_points(
+    datum_ne_m: [f64; 2],
+    first_heading_deg: f64,
+    spacing_m: f64,
+    legs: u32,
+    clockwise: bool,
+) -> Vec<[f64; 2]> {
+    let turn = if clockwise { 90.0 } else { -90.0 };
+    let mut pts = vec![datum_ne_m];
+    let mut p = datum_ne_m;
+    for i in 0..legs {
+        let len = f64::from(i / 2 + 1) * spacing_m;
+        p = along(p, first_heading_deg + turn * f64::from(i), len);
+        pts.push(p);
+    }
+    pts
+}
+
+/// Corners of an IAMSAR sector search: per pattern, three equilateral triangles of side
+/// `radius_m` with a corner on the datum, flown datum -> out -> across -> datum with 120 deg
+/// turns; the outbound legs of a pattern are on bearings `h`, `h + 240`, `h + 120` (the
+/// flight goes straight on through the datum into the next triangle), with
+/// `h = first_heading_deg + 30 * pattern` (signs mirrored when not `clockwise`). Returns
+/// `9 * patterns + 1` points, every third one the datum.
+pub(crate) fn sector_points(
+    datum_ne_m: [f64; 2],
+    radius_m: f64,
+    first_heading_deg: f64,
+    patterns: u32,
+    clockwise: bool,
+) -> Vec<[f64; 2]> {
+    let sign = if clockwise { 1.0 } else { -1.0 };
+    let mut pts = vec![datum_ne_m];
+    for pattern in 0..patterns {
+        let h = first_heading_deg + sign * 30.0 * f64::from(pattern);
+        for out in [0.0, 240.0, 120.0] {
+            let out = h + sign * out;
+            pts.push(along(datum_ne_m, out, radius_m));
+            pts.push(along(datum_ne_m, out + sign * 60.0, radius_m));
+            pts.push(datum_ne_m);
+        }
+    }
+    pts
 }
 
 /// The gimbal's commanded program, stepped at `DRONE_DT_S`.
@@ -439,6 +525,97 @@ mod tests {
             prev = st;
         }
         assert!(max_rate > 100.0 && max_rate <= 180.0 + 1e-6, "{max_rate}");
+    }
+
+    fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+        (a[0] - b[0]).hypot(a[1] - b[1])
+    }
+
+    fn bearing(a: [f64; 2], b: [f64; 2]) -> f64 {
+        wrap_360((b[1] - a[1]).atan2(b[0] - a[0]).to_degrees())
+    }
+
+    #[test]
+    fn expanding_square_legs_grow_1_1_2_2_and_turn_90() {
+        let pts = expanding_square_points([10.0, 20.0], 30.0, 50.0, 7, true);
+        assert_eq!(pts.len(), 8);
+        assert_eq!(pts[0], [10.0, 20.0]);
+        for (i, w) in pts.windows(2).enumerate() {
+            let want_len = 50.0 * (i / 2 + 1) as f64;
+            assert!((dist(w[0], w[1]) - want_len).abs() < 1e-9, "leg {i}");
+            let want_bearing = wrap_360(30.0 + 90.0 * i as f64);
+            assert!(
+                wrap_180(bearing(w[0], w[1]) - want_bearing).abs() < 1e-9,
+                "leg {i}"
+            );
+        }
+        // After legs 1, 1, 2, 2 the square is closed on the diagonal: one spacing back
+        // along the first heading's opposite and one to its left.
+        let p4 = pts[4];
+        let back = along(along([10.0, 20.0], 30.0 + 180.0, 50.0), 30.0 - 90.0, 50.0);
+        assert!(dist(p4, back) < 1e-9, "{p4:?} {back:?}");
+        // Counter-clockwise mirrors the turns.
+        let ccw = expanding_square_points([0.0, 0.0], 0.0, 10.0, 2, false);
+        assert!(dist(ccw[2], [10.0, -10.0]) < 1e-9, "{ccw:?}");
+    }
+
+    #[test]
+    fn sector_triangles_pass_the_datum_and_turn_120() {
+        let datum = [-40.0, 70.0];
+        let pts = sector_points(datum, 200.0, 10.0, 2, true);
+        assert_eq!(pts.len(), 19);
+        for (i, p) in pts.iter().enumerate() {
+            if i % 3 == 0 {
+                assert!(dist(*p, datum) < 1e-9, "point {i} {p:?}");
+            } else {
+                assert!((dist(*p, datum) - 200.0).abs() < 1e-9, "point {i}");
+            }
+        }
+        let legs: Vec<([f64; 2], [f64; 2])> = pts.windows(2).map(|w| (w[0], w[1])).collect();
+        for (i, (a, b)) in legs.iter().enumerate() {
+            assert!((dist(*a, *b) - 200.0).abs() < 1e-9, "leg {i}");
+        }
+        // 120 deg to the right at the outer corners, straight on through the datum, 30 deg
+        // into the second pattern.
+        for i in 1..legs.len() {
+            let turn =
+                wrap_180(bearing(legs[i].0, legs[i].1) - bearing(legs[i - 1].0, legs[i - 1].1));
+            let want = match (i % 3, i) {
+                (0, 9) => 30.0,
+                (0, _) => 0.0,
+                _ => 120.0,
+            };
+            assert!((turn - want).abs() < 1e-9, "turn {i}: {turn}");
+        }
+        // The outbound legs of the first pattern cover 10, 250, 130 deg; the second pattern
+        // is rotated 30 deg.
+        for (leg, want) in [
+            (0, 10.0),
+            (3, 250.0),
+            (6, 130.0),
+            (9, 40.0),
+            (12, 280.0),
+            (15, 160.0),
+        ] {
+            let got = bearing(legs[leg].0, legs[leg].1);
+            assert!(wrap_180(got - want).abs() < 1e-9, "leg {leg}: {got}");
+        }
+    }
+
+    #[test]
+    fn search_patterns_are_flown_at_speed() {
+        let mut s = Scenario::load("calm_baseline").unwrap();
+        s.drone.path = Path2d::Sector {
+            datum_ne_m: [0.0, 0.0],
+            radius_m: 100.0,
+            first_heading_deg: 0.0,
+            patterns: 1,
+            clockwise: true,
+        };
+        let track = DroneTrack::generate(&s, s.seed);
+        // 3 s/m along the first leg: 30 m north of the datum after 10 s.
+        let p = track.at(10.0).pos_ned_m;
+        assert!(dist([p[0], p[1]], [30.0, 0.0]) < 0.1, "{p:?}");
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! Objects on the water: spawning, motion (random walks, boat turns, drift) and timed
-//! class changes, precomputed per object at [`OBJECT_DT_S`] and interpolated.
+//! Objects on the water: spawning, motion (random walks, boat turns, drift with the current
+//! and the wind), timed class changes, stops and resumes, precomputed per object at
+//! [`OBJECT_DT_S`] and interpolated.
 
 use crate::scenario::{EventKind, ObjectClass, ObjectGroup, Scenario};
 use rand::{Rng, SeedableRng};
@@ -107,6 +108,40 @@ impl SimObject {
     }
 }
 
+/// Leeway of a class: the fraction of the wind speed (at 10 m) at which an object adrift
+/// moves downwind through the water, on top of the current.
+///
+/// Orders of magnitude from the leeway tables of IAMSAR Vol. II (after Allen & Plourde,
+/// 1999), reduced to a single downwind factor: these are approximations (the real leeway
+/// has an offset, a crosswind component that makes drift diverge, and a spread), enough to
+/// separate classes that drift apart over minutes.
+///
+/// - swimmer (person in water, with or without a life jacket): 0.015 (tables: about
+///   0.01-0.02);
+/// - boat and jetski, only while stopped (a `stop` event): 0.04 (small craft adrift: about
+///   0.03-0.07); under way they hold their course over ground and neither wind nor current
+///   moves them;
+/// - life-saving appliance (life ring, jacket, small raft): 0.035 (life rafts without a
+///   drogue: about 0.03-0.045);
+/// - buoy: 0, the simulated buoys are moored (the current does not move them either).
+pub fn leeway_fraction(class: ObjectClass) -> f64 {
+    match class {
+        ObjectClass::Swimmer => 0.015,
+        ObjectClass::Boat | ObjectClass::Jetski => 0.04,
+        ObjectClass::LifeSavingAppliance => 0.035,
+        ObjectClass::Buoy => 0.0,
+    }
+}
+
+/// Velocity over ground `[north, east]` of an object adrift: the current plus the leeway
+/// `fraction` of the wind. With no wind it is exactly the current.
+pub fn adrift_velocity(current_ne_mps: [f64; 2], wind_ne_mps: [f64; 2], fraction: f64) -> [f64; 2] {
+    [
+        current_ne_mps[0] + fraction * wind_ne_mps[0],
+        current_ne_mps[1] + fraction * wind_ne_mps[1],
+    ]
+}
+
 /// Default speed range of a class through the water.
 fn default_speed_range(class: ObjectClass) -> [f64; 2] {
     match class {
@@ -144,6 +179,7 @@ fn draw_size(class: ObjectClass, rng: &mut ChaCha8Rng) -> (f64, f64, f64) {
 pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
     let n_steps = ((scenario.duration_s + 2.0) / OBJECT_DT_S).ceil() as usize + 1;
     let current = scenario.sea.current_ne_mps;
+    let wind = scenario.sea.wind_ne_mps;
     let mut objects = Vec::new();
     let mut group_first_index = Vec::new();
     let mut stream = STREAM_OBJECTS;
@@ -154,9 +190,11 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
             rng.set_stream(stream);
             stream += 1;
             let id = objects.len() as u32 + 1;
-            objects.push(spawn(group, id, current, n_steps, &mut rng));
+            let adrift = adrift_velocity(current, wind, leeway_fraction(group.class));
+            objects.push(spawn(group, id, adrift, n_steps, &mut rng));
         }
     }
+    apply_stops(scenario, &group_first_index, &mut objects);
     for event in &scenario.events {
         let Some(&first) = group_first_index.get(event.group) else {
             continue;
@@ -174,6 +212,8 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
                         .sort_by(|a, b| a.0.total_cmp(&b.0));
                 }
             }
+            // Applied to the tracks above.
+            EventKind::Stop | EventKind::Resume => {}
             EventKind::RemoveLifejacket => {
                 let Some(state) = objects[index].at(event.at_s) else {
                     continue;
@@ -186,9 +226,14 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
                 let steps = ((scenario.duration_s + 2.0 - event.at_s).max(0.0) / OBJECT_DT_S).ceil()
                     as usize
                     + 1;
-                // The jacket floats off beside the swimmer and drifts with the current.
+                // The jacket floats off beside the swimmer and drifts with the current and the wind.
                 let start = [state.pos_ned_m[0] + 0.4, state.pos_ned_m[1] + 0.2];
-                let track = drift(start, [0.0, 0.1], current, 0.1, steps, &mut rng);
+                let adrift = adrift_velocity(
+                    current,
+                    wind,
+                    leeway_fraction(ObjectClass::LifeSavingAppliance),
+                );
+                let track = drift(start, [0.0, 0.1], adrift, 0.1, steps, &mut rng);
                 objects.push(SimObject {
                     id,
                     initial_class: ObjectClass::LifeSavingAppliance,
@@ -207,10 +252,107 @@ pub fn generate(scenario: &Scenario, seed: u64) -> Vec<SimObject> {
     objects
 }
 
+/// Applies the `stop` and `resume` events to the tracks of the spawned objects.
+fn apply_stops(scenario: &Scenario, group_first_index: &[usize], objects: &mut [SimObject]) {
+    let sea = &scenario.sea;
+    for (g, group) in scenario.objects.iter().enumerate() {
+        let adrift = adrift_velocity(
+            sea.current_ne_mps,
+            sea.wind_ne_mps,
+            leeway_fraction(group.class),
+        );
+        // The drift already in the spawned track: swimmers and appliances drift all along,
+        // boats under way and buoys do not.
+        let baked = match group.class {
+            ObjectClass::Swimmer | ObjectClass::LifeSavingAppliance => adrift,
+            ObjectClass::Boat | ObjectClass::Jetski => [0.0, 0.0],
+            // Moored; validation refuses stops of buoys.
+            ObjectClass::Buoy => continue,
+        };
+        let Some(&first) = group_first_index.get(g) else {
+            continue;
+        };
+        for member in 0..group.count {
+            let mut switches: Vec<(f64, bool)> = scenario
+                .events
+                .iter()
+                .filter(|e| e.group == g && e.member == member)
+                .filter_map(|e| match e.kind {
+                    EventKind::Stop => Some((e.at_s, true)),
+                    EventKind::Resume => Some((e.at_s, false)),
+                    _ => None,
+                })
+                .collect();
+            if switches.is_empty() {
+                continue;
+            }
+            switches.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some(object) = objects.get_mut(first + member as usize) {
+                let appears_s = object.appears_s;
+                stop_and_resume(&mut object.track, appears_s, &switches, baked, adrift);
+            }
+        }
+    }
+}
+
+/// Rewrites `track` (sampled from `appears_s`) for `switches` `(at_s, stop)`, in time
+/// order: from a stop the object only drifts at `adrift` and keeps its heading; from a resume
+/// it moves again as in the original track, rotated to continue on the heading it kept.
+/// `baked` is the drift contained in the original track, which is not rotated.
+fn stop_and_resume(
+    track: &mut [[f64; 3]],
+    appears_s: f64,
+    switches: &[(f64, bool)],
+    baked: [f64; 2],
+    adrift: [f64; 2],
+) {
+    let original = track.to_vec();
+    let dt = OBJECT_DT_S;
+    let mut next = 0;
+    let mut stopped = false;
+    let mut touched = false;
+    // Heading offset of the resumed motion from the original.
+    let mut rotation = 0.0_f64;
+    for k in 1..track.len() {
+        let t_prev = appears_s + (k - 1) as f64 * dt;
+        while let Some(&(at_s, stop)) = switches.get(next) {
+            if at_s > t_prev {
+                break;
+            }
+            next += 1;
+            if stop && !stopped {
+                stopped = true;
+                touched = true;
+            } else if !stop && stopped {
+                stopped = false;
+                rotation = track[k - 1][2] - original[k - 1][2];
+            }
+        }
+        if !touched {
+            continue;
+        }
+        let prev = track[k - 1];
+        track[k] = if stopped {
+            [prev[0] + adrift[0] * dt, prev[1] + adrift[1] * dt, prev[2]]
+        } else {
+            let own = [
+                original[k][0] - original[k - 1][0] - baked[0] * dt,
+                original[k][1] - original[k - 1][1] - baked[1] * dt,
+            ];
+            let (sin, cos) = rotation.sin_cos();
+            [
+                prev[0] + own[0] * cos - own[1] * sin + baked[0] * dt,
+                prev[1] + own[0] * sin + own[1] * cos + baked[1] * dt,
+                original[k][2] + rotation,
+            ]
+        };
+    }
+}
+
 fn spawn(
     group: &ObjectGroup,
     id: u32,
-    current: [f64; 2],
+    adrift: [f64; 2],
     n_steps: usize,
     rng: &mut ChaCha8Rng,
 ) -> SimObject {
@@ -240,7 +382,7 @@ fn spawn(
     let palette = rng.random_range(0..8);
     let walk = group.random_walk;
     let track = match group.class {
-        ObjectClass::Swimmer => swim(start, speed, heading, hi, walk, current, n_steps, rng),
+        ObjectClass::Swimmer => swim(start, speed, heading, hi, walk, adrift, n_steps, rng),
         ObjectClass::Boat | ObjectClass::Jetski => {
             let turn_sigma = if group.class == ObjectClass::Jetski {
                 30.0
@@ -260,7 +402,7 @@ fn spawn(
         }
         ObjectClass::LifeSavingAppliance => {
             let v = [speed * heading.cos(), speed * heading.sin()];
-            drift(start, v, current, walk * 0.3, n_steps, rng)
+            drift(start, v, adrift, walk * 0.3, n_steps, rng)
         }
         ObjectClass::Buoy => vec![[start[0], start[1], heading]; n_steps],
     };
@@ -287,7 +429,8 @@ fn normal(rng: &mut ChaCha8Rng) -> f64 {
 }
 
 /// Swimmer: an Ornstein-Uhlenbeck velocity around a slowly wandering mean, speed capped at
-/// `max_speed`, plus the current. Facing follows the swimming direction.
+/// `max_speed`, plus the drift `adrift` (current and leeway). Facing follows the swimming
+/// direction.
 #[allow(clippy::too_many_arguments)]
 fn swim(
     start: [f64; 2],
@@ -295,7 +438,7 @@ fn swim(
     heading: f64,
     max_speed: f64,
     walk: f64,
-    current: [f64; 2],
+    adrift: [f64; 2],
     n: usize,
     rng: &mut ChaCha8Rng,
 ) -> Vec<[f64; 3]> {
@@ -324,8 +467,8 @@ fn swim(
             facing += crate::motion::wrap_180((want - facing).to_degrees()).to_radians() * 0.1;
         }
         p = [
-            p[0] + (v[0] + current[0]) * dt,
-            p[1] + (v[1] + current[1]) * dt,
+            p[0] + (v[0] + adrift[0]) * dt,
+            p[1] + (v[1] + adrift[1]) * dt,
         ];
     }
     out
@@ -377,11 +520,12 @@ fn cruise(
     out
 }
 
-/// Floating object: own velocity plus current plus a small random walk.
+/// Floating object: own velocity plus the drift `adrift` (current and leeway) plus a small
+/// random walk.
 fn drift(
     start: [f64; 2],
     v0: [f64; 2],
-    current: [f64; 2],
+    adrift: [f64; 2],
     walk: f64,
     n: usize,
     rng: &mut ChaCha8Rng,
@@ -398,8 +542,8 @@ fn drift(
         }
         h += 0.05 * dt.sqrt() * normal(rng);
         p = [
-            p[0] + (v[0] + current[0]) * dt,
-            p[1] + (v[1] + current[1]) * dt,
+            p[0] + (v[0] + adrift[0]) * dt,
+            p[1] + (v[1] + adrift[1]) * dt,
         ];
     }
     out
@@ -450,6 +594,101 @@ mod tests {
         let sw = swimmer.at(20.0).unwrap();
         let d = (j.pos_ned_m[0] - sw.pos_ned_m[0]).hypot(j.pos_ned_m[1] - sw.pos_ned_m[1]);
         assert!(d < 1.0, "{d}");
+    }
+
+    /// With wind, everything adrift moves downwind by its leeway on top of its own motion
+    /// (same seed, so the own motion is the same); boats under way and buoys do not.
+    #[test]
+    fn wind_adds_leeway_per_class() {
+        let calm = Scenario::load("calm_baseline").unwrap();
+        let mut windy = calm.clone();
+        windy.sea.wind_ne_mps = [0.0, 10.0];
+        let (a, b) = (generate(&calm, 3), generate(&windy, 3));
+        let t = 30.0;
+        for (oa, ob) in a.iter().zip(&b) {
+            let (pa, pb) = (oa.at(t).unwrap(), ob.at(t).unwrap());
+            let de = pb.pos_ned_m[1] - pa.pos_ned_m[1];
+            let dn = pb.pos_ned_m[0] - pa.pos_ned_m[0];
+            let want = match pa.class {
+                ObjectClass::Swimmer => 0.015 * 10.0 * t,
+                ObjectClass::LifeSavingAppliance => 0.035 * 10.0 * t,
+                ObjectClass::Boat | ObjectClass::Jetski | ObjectClass::Buoy => 0.0,
+            };
+            // Sampled at OBJECT_DT_S: the drift up to the sample before t, plus a fraction.
+            assert!((de - want).abs() < 1e-6, "{:?}: {de} vs {want}", pa.class);
+            assert!(dn.abs() < 1e-9, "{dn}");
+        }
+    }
+
+    /// A boat that stops only drifts (current + 4 % of the wind) on its heading, and
+    /// resumes at its own speed on that heading.
+    #[test]
+    fn a_stopped_boat_drifts_and_resumes() {
+        use crate::scenario::{Event, EventKind};
+        let mut s = Scenario::load("calm_baseline").unwrap();
+        s.sea.current_ne_mps = [0.1, 0.0];
+        s.sea.wind_ne_mps = [0.0, 5.0];
+        let boat = s
+            .objects
+            .iter()
+            .position(|g| g.class == ObjectClass::Boat)
+            .unwrap();
+        let before = generate(&s, s.seed);
+        for (kind, at_s) in [(EventKind::Stop, 10.0), (EventKind::Resume, 20.0)] {
+            s.events.push(Event {
+                kind,
+                group: boat,
+                member: 0,
+                at_s,
+                to: None,
+            });
+        }
+        s.validate("t").unwrap();
+        let after = generate(&s, s.seed);
+        let id = before
+            .iter()
+            .position(|o| o.initial_class == ObjectClass::Boat)
+            .unwrap();
+        let (b, o) = (&before[id], &after[id]);
+        for t in [0.0, 5.0, 9.95] {
+            assert_eq!(b.at(t), o.at(t), "t={t}");
+        }
+        let (p12, p18) = (o.at(12.0).unwrap(), o.at(18.0).unwrap());
+        let drift = [0.1, 0.04 * 5.0];
+        assert!((p18.pos_ned_m[0] - p12.pos_ned_m[0] - drift[0] * 6.0).abs() < 1e-9);
+        assert!((p18.pos_ned_m[1] - p12.pos_ned_m[1] - drift[1] * 6.0).abs() < 1e-9);
+        assert!((p12.speed_mps - drift[0].hypot(drift[1])).abs() < 1e-9);
+        assert_eq!(p12.heading_rad, p18.heading_rad);
+        // Under way again, at its own speed (2-3 m/s here), leaving on the kept heading.
+        let p = o.at(20.15).unwrap();
+        assert!((2.0..=3.0 + 1e-9).contains(&p.speed_mps), "{}", p.speed_mps);
+        assert!((p.heading_rad - p18.heading_rad).abs() < 0.1);
+        // The other objects are untouched.
+        for (x, y) in before.iter().zip(&after) {
+            if x.id != b.id {
+                assert_eq!(x.at(15.0), y.at(15.0));
+            }
+        }
+    }
+
+    /// A swimmer that stops swimming drifts with the current and its 1.5 % leeway.
+    #[test]
+    fn a_stopped_swimmer_only_drifts() {
+        use crate::scenario::{Event, EventKind};
+        let mut s = Scenario::load("calm_baseline").unwrap();
+        s.sea.current_ne_mps = [0.0, -0.2];
+        s.sea.wind_ne_mps = [8.0, 0.0];
+        s.events.push(Event {
+            kind: EventKind::Stop,
+            group: 0,
+            member: 1,
+            at_s: 5.0,
+            to: None,
+        });
+        let o = &generate(&s, s.seed)[1];
+        let (a, b) = (o.at(10.0).unwrap(), o.at(40.0).unwrap());
+        assert!((b.pos_ned_m[0] - a.pos_ned_m[0] - 0.015 * 8.0 * 30.0).abs() < 1e-9);
+        assert!((b.pos_ned_m[1] - a.pos_ned_m[1] + 0.2 * 30.0).abs() < 1e-9);
     }
 
     #[test]

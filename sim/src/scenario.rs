@@ -122,6 +122,18 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "ardupilot_servo",
         include_str!("../scenarios/ardupilot_servo.toml"),
     ),
+    (
+        "lawnmower_search",
+        include_str!("../scenarios/lawnmower_search.toml"),
+    ),
+    (
+        "expanding_square",
+        include_str!("../scenarios/expanding_square.toml"),
+    ),
+    (
+        "sector_search",
+        include_str!("../scenarios/sector_search.toml"),
+    ),
 ];
 
 /// A complete scenario.
@@ -154,7 +166,7 @@ pub struct Scenario {
     /// Groups of objects on the water.
     #[serde(default)]
     pub objects: Vec<ObjectGroup>,
-    /// Timed changes to objects (class changes).
+    /// Timed changes to objects (class changes, life jackets, stops and resumes).
     #[serde(default)]
     pub events: Vec<Event>,
     /// Errors injected into the metadata the autopilot reports.
@@ -270,6 +282,44 @@ pub enum Path2d {
         /// Number of legs.
         legs: u32,
     },
+    /// An IAMSAR expanding square search from a datum: legs of 1, 1, 2, 2, 3, 3, ... times
+    /// the track spacing, turning 90 degrees after each.
+    ExpandingSquare {
+        /// The datum `[north_m, east_m]`, where the first leg starts.
+        datum_ne_m: [f64; 2],
+        /// Direction of the first leg.
+        first_heading_deg: f64,
+        /// Track spacing: the length of the first two legs and the growth of the others.
+        spacing_m: f64,
+        /// Number of legs.
+        legs: u32,
+        /// Turn right after each leg (left when false).
+        #[serde(default = "default_true")]
+        clockwise: bool,
+    },
+    /// An IAMSAR sector search ("VS"): three equilateral triangles of side `radius_m` with
+    /// a corner on the datum, turning 120 degrees at the outer corners and flying straight
+    /// on through the datum into the next triangle (nine legs of `radius_m` per pattern);
+    /// pattern `k` is the first rotated `30 * k` degrees in the turning direction.
+    Sector {
+        /// The datum `[north_m, east_m]`, where the pattern starts and which every triangle
+        /// passes.
+        datum_ne_m: [f64; 2],
+        /// Length of every leg (the radius of the searched circle).
+        radius_m: f64,
+        /// Direction of the first leg.
+        first_heading_deg: f64,
+        /// Number of patterns (IAMSAR flies one, or two with the second rotated 30 deg).
+        #[serde(default = "default_patterns")]
+        patterns: u32,
+        /// Turn right (120 degrees) after each leg (left when false).
+        #[serde(default = "default_true")]
+        clockwise: bool,
+    },
+}
+
+fn default_patterns() -> u32 {
+    1
 }
 
 fn default_true() -> bool {
@@ -391,8 +441,13 @@ pub struct Sea {
     pub sun_azimuth_deg: f64,
     /// Strength of sun glint, 0 to 1.
     pub glint: f64,
-    /// Surface current `[north, east]` carrying swimmers, buoys' drift aside, and appliances.
+    /// Surface current `[north, east]` carrying everything adrift: swimmers, appliances and
+    /// stopped boats (boats under way and the moored buoys are not carried).
     pub current_ne_mps: [f64; 2],
+    /// Wind at 10 m `[north, east]` (the direction it blows *towards*): objects adrift also
+    /// move downwind at their class's leeway fraction of it
+    /// ([`crate::objects::leeway_fraction`]). Default calm.
+    pub wind_ne_mps: [f64; 2],
     /// Base sea colour, RGB.
     pub color_rgb: [u8; 3],
 }
@@ -408,6 +463,7 @@ impl Default for Sea {
             sun_azimuth_deg: 180.0,
             glint: 0.6,
             current_ne_mps: [0.0, 0.0],
+            wind_ne_mps: [0.0, 0.0],
             color_rgb: [22, 70, 92],
         }
     }
@@ -527,6 +583,13 @@ pub enum EventKind {
     RemoveLifejacket,
     /// The object's class changes to `to` (same id).
     ChangeClass,
+    /// The object stops under its own power (a boat stops its engine among swimmers, a
+    /// swimmer stops swimming): its speed through the water becomes 0 and it only drifts
+    /// with the current and its leeway in the wind, keeping its heading. Not for buoys.
+    Stop,
+    /// A stopped object moves under its own power again, on the heading it kept while
+    /// stopped. Needs an earlier `stop` of the same object.
+    Resume,
 }
 
 /// Metadata faults: what the autopilot reports differs from the truth by these.
@@ -808,7 +871,25 @@ impl Scenario {
                 (EventKind::ChangeClass, _) => {
                     p.require(e.to.is_some(), &field("to"), "change_class needs `to`")
                 }
-                (EventKind::RemoveLifejacket, None) => {}
+                (EventKind::Stop | EventKind::Resume, Some(g)) => p.require(
+                    g.class != ObjectClass::Buoy,
+                    &field("kind"),
+                    "buoys are moored: they cannot stop or resume",
+                ),
+                (EventKind::RemoveLifejacket | EventKind::Stop | EventKind::Resume, None) => {}
+            }
+            if e.kind == EventKind::Resume {
+                let stopped_before = self.events.iter().any(|s| {
+                    s.kind == EventKind::Stop
+                        && s.group == e.group
+                        && s.member == e.member
+                        && s.at_s < e.at_s
+                });
+                p.require(
+                    stopped_before,
+                    &field("kind"),
+                    "resume needs an earlier stop of the same object",
+                );
             }
         }
     }
@@ -891,6 +972,52 @@ fn check_path(path: &Path2d, p: &mut Problems) {
             );
         }
         Path2d::Lawnmower { .. } => check_lawnmower(path, p),
+        Path2d::ExpandingSquare {
+            datum_ne_m,
+            first_heading_deg,
+            spacing_m,
+            legs,
+            ..
+        } => {
+            p.require(
+                finite(*spacing_m) && *spacing_m > 1.0,
+                "drone.path.spacing_m",
+                "must be > 1",
+            );
+            p.require(
+                (1..=1000).contains(legs),
+                "drone.path.legs",
+                "must be within [1, 1000]",
+            );
+            p.require(
+                all_finite(datum_ne_m) && finite(*first_heading_deg),
+                "drone.path",
+                "values must be finite",
+            );
+        }
+        Path2d::Sector {
+            datum_ne_m,
+            radius_m,
+            first_heading_deg,
+            patterns,
+            ..
+        } => {
+            p.require(
+                finite(*radius_m) && *radius_m > 1.0,
+                "drone.path.radius_m",
+                "must be > 1",
+            );
+            p.require(
+                (1..=6).contains(patterns),
+                "drone.path.patterns",
+                "must be within [1, 6]",
+            );
+            p.require(
+                all_finite(datum_ne_m) && finite(*first_heading_deg),
+                "drone.path",
+                "values must be finite",
+            );
+        }
     }
 }
 
@@ -987,6 +1114,18 @@ fn check_camera(c: &Camera, p: &mut Problems) {
 
 /// `sea.*`.
 fn check_sea(s: &Sea, p: &mut Problems) {
+    p.require(
+        s.current_ne_mps.iter().all(|v| finite(*v))
+            && s.current_ne_mps[0].hypot(s.current_ne_mps[1]) <= 5.0,
+        "sea.current_ne_mps",
+        "must be finite, at most 5 m/s",
+    );
+    p.require(
+        s.wind_ne_mps.iter().all(|v| finite(*v))
+            && s.wind_ne_mps[0].hypot(s.wind_ne_mps[1]) <= 40.0,
+        "sea.wind_ne_mps",
+        "must be finite, at most 40 m/s",
+    );
     p.require(
         finite(s.wave_length_m) && s.wave_length_m > 0.1,
         "sea.wave_length_m",
@@ -1177,6 +1316,97 @@ mod tests {
                 format!("events[{n}].to")
             ]
         );
+    }
+
+    fn event(kind: EventKind, group: usize, member: u32, at_s: f64) -> Event {
+        Event {
+            kind,
+            group,
+            member,
+            at_s,
+            to: None,
+        }
+    }
+
+    /// `stop` and `resume` are checked like the other events (group, member), plus their own
+    /// rules: not on a buoy, and a resume only after a stop of the same object.
+    #[test]
+    fn stop_and_resume_are_validated() {
+        let mut s = Scenario::load("lawnmower_search").unwrap();
+        let buoy = s
+            .objects
+            .iter()
+            .position(|g| g.class == ObjectClass::Buoy)
+            .unwrap();
+        let swimmers = s
+            .objects
+            .iter()
+            .position(|g| g.class == ObjectClass::Swimmer)
+            .unwrap();
+        let n = s.events.len();
+        s.events.extend([
+            event(EventKind::Stop, buoy, 0, 10.0),
+            event(EventKind::Stop, swimmers, 9999, 10.0),
+            event(EventKind::Resume, swimmers, 1, 10.0),
+            event(EventKind::Stop, swimmers, 2, 20.0),
+            event(EventKind::Resume, swimmers, 2, 19.0),
+            event(EventKind::Stop, 99, 0, 10.0),
+        ]);
+        let Err(ScenarioError::Invalid { problems, .. }) = s.validate("t") else {
+            panic!("validated")
+        };
+        let fields: Vec<String> = problems.into_iter().map(|p| p.field).collect();
+        assert_eq!(
+            fields,
+            [
+                format!("events[{n}].kind"),
+                format!("events[{}].member", n + 1),
+                format!("events[{}].kind", n + 2),
+                format!("events[{}].kind", n + 4),
+                format!("events[{}].group", n + 5),
+            ]
+        );
+        // A stop and a later resume of a swimmer are fine.
+        s.events.truncate(n);
+        s.events.push(event(EventKind::Stop, swimmers, 2, 20.0));
+        s.events.push(event(EventKind::Resume, swimmers, 2, 40.0));
+        s.validate("t").unwrap();
+    }
+
+    #[test]
+    fn wind_defaults_to_calm_and_is_range_checked() {
+        let s = Scenario::load("mixed_mission_soak").unwrap();
+        assert_eq!(s.sea.wind_ne_mps, [0.0, 0.0]);
+        let text = SHIPPED[0]
+            .1
+            .replace("[sea]", "[sea]\nwind_ne_mps = [50.0, 0.0]");
+        let err = Scenario::from_toml(&text, "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("sea.wind_ne_mps"), "{err}");
+    }
+
+    #[test]
+    fn new_path_kinds_are_range_checked() {
+        let base = SHIPPED[0].1;
+        let start = base.find("[drone.path]").unwrap();
+        let end = start + base[start..].find("\n\n").unwrap();
+        for (path, field) in [
+            (
+                "kind = \"expanding_square\"\ndatum_ne_m = [0.0, 0.0]\nfirst_heading_deg = 0.0\nspacing_m = 0.5\nlegs = 4",
+                "drone.path.spacing_m",
+            ),
+            (
+                "kind = \"sector\"\ndatum_ne_m = [0.0, 0.0]\nfirst_heading_deg = 0.0\nradius_m = 100.0\npatterns = 0",
+                "drone.path.patterns",
+            ),
+        ] {
+            let text = format!("{}[drone.path]\n{path}{}", &base[..start], &base[end..]);
+            let err = Scenario::from_toml(&text, "x.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(field), "{err}");
+        }
     }
 
     #[test]

@@ -40,6 +40,10 @@ fn lists_the_shipped_scenarios() {
         "gimbal_pitch_bias",
         "telemetry_dropout",
         "mixed_mission_soak",
+        "ardupilot_servo",
+        "lawnmower_search",
+        "expanding_square",
+        "sector_search",
     ] {
         assert!(out.contains(name), "{name} missing from:\n{out}");
     }
