@@ -53,6 +53,24 @@ def main(out):
                 })
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(rows, f, indent=1)
+    # Summary: per scenario and run, the mean over seeds.
+    print("Mean over seeds (IDF1/oracle = the run's IDF1 over the oracle's on the same detections):")
+    print()
+    print("| scenario | seeds | oracle IDF1 | baseline IDF1 | online IDF1 | online withheld IDF1 (ids/obj) | offline IDF1 (ids/obj) | online withheld / oracle | offline / oracle |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    scen = sorted({r["scenario"] for r in rows})
+    for sc in scen:
+        def mean(run, key):
+            v = [r[key] for r in rows if r["scenario"] == sc and r["run"] == run]
+            return sum(v) / len(v)
+        n = len({r["seed"] for r in rows if r["scenario"] == sc})
+        print(f"| {sc} | {n} | {mean('oracle','IDF1'):.3f} | {mean('baseline','IDF1'):.3f} | {mean('online','IDF1'):.3f} "
+              f"| {mean('online_withheld','IDF1'):.3f} ({mean('online_withheld','ids_per_object'):.2f}) "
+              f"| {mean('offline','IDF1'):.3f} ({mean('offline','ids_per_object'):.2f}) "
+              f"| {mean('online_withheld','idf1_vs_oracle'):.2f} | {mean('offline','idf1_vs_oracle'):.2f} |")
+    print()
+    print("Every run:")
+    print()
     print("| scenario | seed | run | HOTA | AssA | IDF1 | IDF1/oracle | IDSW | ids/obj |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:

@@ -285,6 +285,7 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
             vel_e_mps: 0.1,
             h_std_m: 2.5,
         }),
+        provisional: false,
     };
     messages.push((link::heartbeat(), 1, ours));
     messages.push((

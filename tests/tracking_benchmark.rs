@@ -1,0 +1,113 @@
+//! Regression guard of the tracking benchmark (README, "Tracking benchmark"): every long search
+//! mission at its own seed, the simulated detector's boxes tracked online (provisional tracks
+//! withheld) and offline by the real binaries, scored by `mgmot eval`. A test fails when IDF1
+//! drops more than [`TOLERANCE`] below the committed table (the default-seed rows of
+//! `scripts/bench_tracking.sh`). The identity oracle (`mgmot oracle`) is printed beside.
+
+mod common;
+
+use std::path::Path;
+
+use common::{mgmot, sim, TestDir};
+
+/// How far IDF1 may fall below the committed table.
+const TOLERANCE: f64 = 0.05;
+
+/// IDF1 of one mission in `mgmot eval --json` output.
+fn idf1(gt: &Path, pred: &Path) -> f64 {
+    let out = mgmot()
+        .arg("eval")
+        .arg("--gt")
+        .arg(gt)
+        .arg("--pred")
+        .arg(pred)
+        .arg("--json")
+        .ok();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("eval --json output");
+    v["IDF1"].as_f64().expect("IDF1 in eval --json")
+}
+
+/// Runs one mission and checks it against the committed online (withheld) and offline IDF1.
+fn mission(scenario: &str, committed_online: f64, committed_offline: f64) {
+    let dir = TestDir::new();
+    let det = dir.join("det.txt");
+    let gt_dir = dir.join("gt");
+    sim()
+        .args(["detections", "--scenario", scenario, "--out"])
+        .arg(&det)
+        .arg("--gt-dir")
+        .arg(&gt_dir)
+        .ok();
+    let gt = gt_dir.join("gt/gt.txt");
+    let ann = gt_dir.join("annotations.json");
+    let oracle = dir.join("oracle.txt");
+    mgmot()
+        .arg("oracle")
+        .arg("--gt")
+        .arg(&gt)
+        .arg("--detections")
+        .arg(&det)
+        .arg("--out")
+        .arg(&oracle)
+        .ok();
+    let oracle_idf1 = idf1(&gt, &oracle);
+    for (mode, committed, extra) in [
+        ("online", committed_online, Some("--withhold-provisional")),
+        ("offline", committed_offline, None),
+    ] {
+        let out = dir.join(mode);
+        let mut cmd = mgmot();
+        cmd.arg("track")
+            .arg("--annotations")
+            .arg(&ann)
+            .arg("--detections")
+            .arg(&det)
+            .args(["--mode", mode])
+            .args(extra)
+            .arg("--json")
+            .arg("--out")
+            .arg(&out);
+        cmd.ok();
+        let pred = std::fs::read_dir(&out)
+            .expect("track output folder")
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .find(|p| p.extension().is_some_and(|x| x == "txt"))
+            .expect("a MOTChallenge results file");
+        let got = idf1(&gt, &pred);
+        eprintln!(
+            "{scenario} {mode}: IDF1 {got:.3} (committed {committed:.3}, oracle {oracle_idf1:.3})"
+        );
+        assert!(
+            got >= committed - TOLERANCE,
+            "{scenario} {mode}: IDF1 {got:.3} fell more than {TOLERANCE} below the committed {committed:.3}"
+        );
+    }
+}
+
+#[test]
+fn mixed_mission_soak_keeps_its_identities() {
+    mission("mixed_mission_soak", MIXED.0, MIXED.1);
+}
+
+#[test]
+fn lawnmower_search_keeps_its_identities() {
+    mission("lawnmower_search", LAWNMOWER.0, LAWNMOWER.1);
+}
+
+#[test]
+fn expanding_square_keeps_its_identities() {
+    mission("expanding_square", SQUARE.0, SQUARE.1);
+}
+
+#[test]
+fn sector_search_keeps_its_identities() {
+    mission("sector_search", SECTOR.0, SECTOR.1);
+}
+
+// The committed table (README, "Tracking benchmark", seed "default"): (online with provisional
+// tracks withheld, offline) IDF1.
+const MIXED: (f64, f64) = (0.755, 0.850);
+const LAWNMOWER: (f64, f64) = (0.808, 0.915);
+const SQUARE: (f64, f64) = (0.681, 0.917);
+const SECTOR: (f64, f64) = (0.512, 0.695);
