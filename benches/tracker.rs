@@ -4,6 +4,11 @@
 //! and are matched against a memory bank of 10 lost tracks (online ReID decision).
 //! Target (issue 2): median <= 50 us per frame on one core.
 //!
+//! Third case (issue 14): one long-gap ReID decision against a memory bank of 200 ended
+//! tracks (`reid_decision_200_in_memory`: 1 new track; `..._5_new`: 5 new tracks decided in
+//! the same frame), every exit of the new track's class and within minutes of it, so that
+//! every pair is evaluated under the Mahalanobis gate. Target: <= 1 ms per decision.
+//!
 //! Each case is measured twice: wall-clock time (criterion's default) and the CPU time of the
 //! benchmark thread (`*_cpu`), which is what "on one core" means when the machine is shared
 //! and the wall clock includes time spent waiting for a core.
@@ -13,8 +18,9 @@ use std::time::Duration;
 use cpu_time::ThreadTime;
 use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use mgmot::track::reid::{associate_exits_to_entries, TrackEnd};
 use mgmot::track::{
-    BBox, Detection, FrameInput, TrackState, Tracker, TrackerParams, WorldObservation,
+    BBox, Detection, FrameInput, ReidParams, TrackState, Tracker, TrackerParams, WorldObservation,
 };
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
@@ -234,7 +240,44 @@ fn bench_step_cpu(c: &mut Criterion<ThreadCpuTime>) {
     );
 }
 
-criterion_group!(benches, bench_step);
+/// A memory bank of 200 exits (swimmers and boats, ended 1-300 s before) and `n` entries.
+fn long_gap_case(n: usize) -> (Vec<TrackEnd>, Vec<TrackEnd>) {
+    let mut rng = Lcg(7);
+    let end = |rng: &mut Lcg, t: f64, spread: f64| TrackEnd {
+        class_id: if rng.next() < 0.8 { 1 } else { 2 },
+        time_s: t,
+        pos_ne_m: Vector2::new(rng.next() * spread, rng.next() * spread),
+        vel_ne_m_s: Vector2::new(rng.next() - 0.5, rng.next() - 0.5),
+        pos_cov_m2: Matrix2::identity() * (0.5 + rng.next()),
+        vel_cov_m2_s2: Matrix2::identity() * 0.05,
+        left_view: rng.next() < 0.7,
+    };
+    let exits = (0..200)
+        .map(|_| {
+            let t = 300.0 * rng.next();
+            end(&mut rng, t, 200.0)
+        })
+        .collect();
+    let entries = (0..n).map(|_| end(&mut rng, 301.0, 200.0)).collect();
+    (exits, entries)
+}
+
+fn bench_long_gap(c: &mut Criterion) {
+    let params = ReidParams::default();
+    for n in [1, 5] {
+        let (exits, entries) = long_gap_case(n);
+        let name = if n == 1 {
+            "reid_decision_200_in_memory".to_owned()
+        } else {
+            format!("reid_decision_200_in_memory_{n}_new")
+        };
+        c.bench_function(&name, |b| {
+            b.iter(|| associate_exits_to_entries(&exits, &entries, &params))
+        });
+    }
+}
+
+criterion_group!(benches, bench_step, bench_long_gap);
 criterion_group! {
     name = benches_cpu;
     config = Criterion::default().with_measurement(ThreadCpuTime);

@@ -24,6 +24,12 @@ def ids_in(path, considered_only=False):
     return ids
 
 
+def detector(seed):
+    """Which detector a row's boxes came from: the simulated one, or the shipped model on
+    rendered frames (seed folders named <seed>-model)."""
+    return "model" if seed.endswith("-model") else "simulated"
+
+
 def seed_key(s):
     return (s != "default", s)
 
@@ -56,15 +62,17 @@ def main(out):
     # Summary: per scenario and run, the mean over seeds.
     print("Mean over seeds (IDF1/oracle = the run's IDF1 over the oracle's on the same detections):")
     print()
-    print("| scenario | seeds | oracle IDF1 | baseline IDF1 | online IDF1 | online withheld IDF1 (ids/obj) | offline IDF1 (ids/obj) | online withheld / oracle | offline / oracle |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    scen = sorted({r["scenario"] for r in rows})
-    for sc in scen:
+    print("| scenario | detector | seeds | oracle IDF1 | baseline IDF1 | online IDF1 | online withheld IDF1 (ids/obj) | offline IDF1 (ids/obj) | online withheld / oracle | offline / oracle |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    groups = sorted({(r["scenario"], detector(r["seed"])) for r in rows})
+    for sc, det in groups:
+        group = [r for r in rows if r["scenario"] == sc and detector(r["seed"]) == det]
+
         def mean(run, key):
-            v = [r[key] for r in rows if r["scenario"] == sc and r["run"] == run]
+            v = [r[key] for r in group if r["run"] == run]
             return sum(v) / len(v)
-        n = len({r["seed"] for r in rows if r["scenario"] == sc})
-        print(f"| {sc} | {n} | {mean('oracle','IDF1'):.3f} | {mean('baseline','IDF1'):.3f} | {mean('online','IDF1'):.3f} "
+        n = len({r["seed"] for r in group})
+        print(f"| {sc} | {det} | {n} | {mean('oracle','IDF1'):.3f} | {mean('baseline','IDF1'):.3f} | {mean('online','IDF1'):.3f} "
               f"| {mean('online_withheld','IDF1'):.3f} ({mean('online_withheld','ids_per_object'):.2f}) "
               f"| {mean('offline','IDF1'):.3f} ({mean('offline','ids_per_object'):.2f}) "
               f"| {mean('online_withheld','idf1_vs_oracle'):.2f} | {mean('offline','idf1_vs_oracle'):.2f} |")

@@ -327,6 +327,7 @@ fn short_gap_inside_view_is_relinked_by_short_term_reid() {
     let (frames, truth) = scene.frames(300);
     let mut p = TrackerParams::default();
     p.reid.long_term = false; // only short-term may link it
+    p.reid.short_term = true;
     let (ids, merges) = online_ids(&frames, &truth, p.clone());
     assert_eq!(merges, 1);
     let mut tracker = Tracker::new(p.clone()).unwrap();
@@ -364,8 +365,9 @@ fn no_merge_beyond_the_world_distance_gate() {
     let off = offline_ids(&frames, &truth, &TrackerParams::default());
     assert!(off[&0].is_disjoint(&off[&1]));
 
-    // Control: with a 25 m gate the same scene is linked.
+    // Control: with the paper's short-term stage and a 25 m gate the same scene is linked.
     let mut wide = TrackerParams::default();
+    wide.reid.short_term = true;
     wide.reid.classes.get_mut(&1).unwrap().tau_match_m = 25.0;
     let (ids, merges) = online_ids(&frames, &truth, wide);
     assert_eq!(merges, 1);

@@ -110,4 +110,4 @@ fn sector_search_keeps_its_identities() {
 const MIXED: (f64, f64) = (0.755, 0.850);
 const LAWNMOWER: (f64, f64) = (0.808, 0.915);
 const SQUARE: (f64, f64) = (0.681, 0.917);
-const SECTOR: (f64, f64) = (0.512, 0.695);
+const SECTOR: (f64, f64) = (0.534, 0.697);

@@ -7,6 +7,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mgmot::eval::oracle::label_detections;
+use mgmot::eval::BoxXywh;
+use mgmot::formats::coco;
 use mgmot::formats::mot::{self, MotRecord};
 
 /// Arguments of `mgmot oracle`.
@@ -21,9 +23,11 @@ pub struct Args {
     /// Ground truth, a MOTChallenge txt file (`gt/gt.txt`).
     #[arg(long, value_name = "GT.txt")]
     gt: PathBuf,
-    /// Detections, a MOTChallenge detection file (`frame,-1,x,y,w,h,score[,class]`, as
-    /// `mgmot-sim detections -o FILE.txt` writes).
-    #[arg(long, value_name = "DET.txt")]
+    /// Detections: a MOTChallenge detection file (`frame,-1,x,y,w,h,score[,class]`, as
+    /// `mgmot-sim detections -o FILE.txt` writes) or COCO results `.json` (as `mgmot detect`
+    /// writes), whose `image_id` is taken as the MOTChallenge frame number (true of the
+    /// simulator's and SeaDronesSee-style annotations: frame index + 1).
+    #[arg(long, value_name = "DET.txt|DET.json")]
     detections: PathBuf,
     /// Smallest IoU for a detection to count as the object's.
     #[arg(long, default_value_t = 0.5, value_parser = parse_iou)]
@@ -31,6 +35,32 @@ pub struct Args {
     /// Output MOTChallenge results file.
     #[arg(long, value_name = "OUT.txt")]
     out: PathBuf,
+}
+
+/// Detections from a MOTChallenge or COCO results file, as MOTChallenge records.
+fn read_detections(path: &std::path::Path) -> anyhow::Result<Vec<MotRecord>> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    {
+        return Ok(coco::read_detections(path)?
+            .into_iter()
+            .map(|d| MotRecord {
+                frame: d.image_id,
+                id: -1,
+                bbox: BoxXywh {
+                    x: d.bbox[0],
+                    y: d.bbox[1],
+                    w: d.bbox[2],
+                    h: d.bbox[3],
+                },
+                conf: d.score,
+                class: i64::from(d.category_id),
+                visibility: None,
+            })
+            .collect());
+    }
+    Ok(mot::read_detections(path)?)
 }
 
 fn parse_iou(s: &str) -> Result<f64, String> {
@@ -46,7 +76,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .map(MotRecord::to_gt_annotation)
         .collect();
-    let dets = mot::read_detections(&args.detections)?;
+    let dets = read_detections(&args.detections)?;
     let det_ann: Vec<_> = dets.iter().map(MotRecord::to_pred_annotation).collect();
     let records: Vec<MotRecord> = label_detections(&gt, &det_ann, args.min_iou)
         .into_iter()

@@ -386,7 +386,11 @@ mod tests {
 
     #[test]
     fn short_term_links_nearest_within_gate() {
-        let p = ReidParams::default();
+        let p = ReidParams {
+            short_term: true,
+            long_term: false,
+            ..ReidParams::default()
+        };
         let exits = [
             end(1, 0.0, 0.0, 0.0, 0.0, 0.0, false),
             end(1, 0.0, 10.0, 0.0, 0.0, 0.0, false),
