@@ -13,7 +13,7 @@
 //!   included); [`Tracker::finish`] decides the pending links at the end of a sequence.
 //! - Offline: [`track_sequence`] runs the baseline over a whole sequence and then the paper's
 //!   post-processing, interpolation -> ReID -> interpolation.
-//! - The paper's equations: [`reid::window_velocity`] (Eq. 8), [`reid::extrapolate`] (Eq. 7),
+//! - The paper's equations: [`reid::extrapolate`] (Eq. 7),
 //!   [`reid::extrapolate_bidirectional`] (BiME), [`reid::expanded_match_threshold`] (MTE,
 //!   Eq. 9), [`reid::short_term_cost`] (Eq. 6); [`nms_prefer_larger`] (Sec. 5.1).
 

@@ -3,7 +3,6 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
 use super::bbox::BBox;
@@ -63,8 +62,6 @@ struct Point {
     class_id: Option<u32>,
     /// Filtered world state.
     world: Option<WorldState>,
-    /// Raw world observation (the paper's X^3D), interpolated for filled points.
-    obs_ne_m: Option<Vector2<f64>>,
     interpolated: bool,
 }
 
@@ -99,10 +96,6 @@ pub fn track_sequence(
                 score: t.score,
                 class_id: Some(det.map_or(t.class_id, |d| d.class_id)),
                 world: t.world,
-                obs_ne_m: det
-                    .and_then(|d| d.world)
-                    .map(|w| w.pos_ne_m)
-                    .filter(|p| p.iter().all(|v| v.is_finite())),
                 interpolated: false,
             });
         }
@@ -131,8 +124,7 @@ pub fn track_sequence(
                 .filter(|p| !p.interpolated)
                 .filter_map(|p| p.world.map(|w| (p.pos, w)))
                 .collect();
-            let (Some(&(first_pos, _)), Some(&(last_pos, last))) = (worlds.first(), worlds.last())
-            else {
+            let Some(&(last_pos, last)) = worlds.last() else {
                 continue;
             };
             let last_point = points.iter().rev().find(|p| p.pos == last_pos);
@@ -152,7 +144,6 @@ pub fn track_sequence(
             // The entry as online takes it: the world state w observations in (or the last
             // one of a shorter tracklet), when the velocity has settled.
             let (entry_pos, entry) = worlds[window.min(worlds.len() - 1)];
-            let _ = first_pos;
             entries.push(track_end(class_id, frames[entry_pos].time_s, &entry, false));
             entry_ids.push(id);
             spans.push((
@@ -260,10 +251,6 @@ fn interpolate(points: &mut Vec<Point>, frames: &[FrameInput], max_gap_frames: u
                     }),
                     _ => None,
                 },
-                obs_ne_m: match (a.obs_ne_m, b.obs_ne_m) {
-                    (Some(oa), Some(ob)) => Some(oa.lerp(&ob, s)),
-                    _ => None,
-                },
                 interpolated: true,
             });
         }
@@ -289,14 +276,13 @@ mod tests {
         }
     }
 
-    fn point(pos: usize, x: f64, obs: Option<f64>) -> Point {
+    fn point(pos: usize, x: f64) -> Point {
         Point {
             pos,
             bbox: BBox::new(x, 0.0, 10.0, 10.0),
             score: 0.8,
             class_id: Some(1),
             world: None,
-            obs_ne_m: obs.map(|n| Vector2::new(n, 0.0)),
             interpolated: false,
         }
     }
@@ -305,7 +291,7 @@ mod tests {
     fn interpolation_fills_short_gaps_in_frame_numbers() {
         // frame 3 was dropped from the input: positions 0..=4 are frames 0, 1, 2, 4, 5
         let frames: Vec<_> = [0, 1, 2, 4, 5].into_iter().map(frame).collect();
-        let mut pts = vec![point(0, 0.0, Some(0.0)), point(4, 50.0, Some(5.0))];
+        let mut pts = vec![point(0, 0.0), point(4, 50.0)];
         interpolate(&mut pts, &frames, 20);
         let xs: Vec<f64> = pts.iter().map(|p| p.bbox.x).collect();
         assert_eq!(
@@ -314,7 +300,7 @@ mod tests {
         );
         // frame 4 is 4/5 of the way
         assert_relative_eq!(xs[3], 40.0);
-        assert_relative_eq!(pts[2].obs_ne_m.unwrap().x, 2.0);
+        assert_relative_eq!(xs[2], 20.0);
         assert!(pts[1].interpolated && !pts[4].interpolated);
         assert_eq!(pts[1].class_id, None);
     }
@@ -332,11 +318,11 @@ mod tests {
     #[test]
     fn interpolation_leaves_long_gaps_open() {
         let frames: Vec<_> = (0..10).map(frame).collect();
-        let mut pts = vec![point(0, 0.0, None), point(9, 90.0, None)];
+        let mut pts = vec![point(0, 0.0), point(9, 90.0)];
         interpolate(&mut pts, &frames, 7);
         assert_eq!(pts.len(), 2);
         interpolate(&mut pts, &frames, 8);
         assert_eq!(pts.len(), 10);
-        assert!(pts.iter().all(|p| p.obs_ne_m.is_none()));
+        assert!(pts[1..9].iter().all(|p| p.interpolated));
     }
 }

@@ -216,14 +216,14 @@ pub struct ReidParams {
     pub short_term: bool,
     /// Long-term ReID (BiME + MTE, Eq. 7-9).
     pub long_term: bool,
-    /// w, frames: the velocity window of Eq. 8. The exit velocity uses the observation w
-    /// matched observations before the exit (the paper's `X_{t_exit - w}`; the same as w
-    /// frames when the track was matched in every frame) and divides by the true time
-    /// between the two, s; the entry velocity likewise w observations after the entry.
-    /// Online, a new track is linked once `frame_index - start_frame >= w` (frame numbers,
-    /// so dropped frames count). 30 frames = 1 s at 30 fps: long
-    /// enough that geolocation noise (about 1 m) gives a velocity error near 1 m/s, short
-    /// enough that online re-labels come within a second.
+    /// w, frames: how long a new track is observed before its ReID decision (the paper's
+    /// velocity window, Eq. 8). Online, a new track is decided once
+    /// `frame_index - start_frame >= w` (frame numbers, so dropped frames count), with its
+    /// world filter's state then as the entry (position, velocity and their covariances);
+    /// offline, the entry is the filter's state at the tracklet's w-th world observation.
+    /// 30 frames = 1 s at 30 fps: long enough for the velocity to settle, short enough that
+    /// online re-labels come within a second (10 and 20 were measured: better on some
+    /// scenarios, worse on others).
     pub window_frames: u32,
     /// Per-class thresholds keyed by detector class id. Default: SeaDronesSee classes,
     /// 1 swimmer, 4 life-saving appliance, 5 buoy swimmer-like; 2 boat, 3 jetski boat-like.

@@ -33,9 +33,11 @@ pub struct TrackEnd {
     pub class_id: u32,
     /// Time of the exit (last observation) or entry (first observation), s.
     pub time_s: f64,
-    /// World position at that time, north/east m (`X^3D_t_exit` or `X^3D_t_entry`).
+    /// World position at that time, north/east m (the paper's `X^3D_t_exit` /
+    /// `X^3D_t_entry`; here the track's world filter estimate).
     pub pos_ne_m: Vector2<f64>,
-    /// Velocity at that end over the window w, m/s (Eq. 8).
+    /// Velocity at that end, m/s (the paper's Eq. 8 window velocity; here the world filter's
+    /// estimate, the same quantity with less noise and with a covariance).
     pub vel_ne_m_s: Vector2<f64>,
     /// Covariance of `pos_ne_m`, m^2 (the world filter's at that end).
     pub pos_cov_m2: Matrix2<f64>,
@@ -44,19 +46,6 @@ pub struct TrackEnd {
     /// For an exit: whether the track's last box touched the image border (it left the view;
     /// only long-term ReID applies). Ignored for entries.
     pub left_view: bool,
-}
-
-/// Exit (or entry) velocity over the window, Eq. 8:
-/// `V = (X_t_exit - X_t_exit-w) / w`, with the window measured in seconds between the two
-/// observations instead of frames (`earlier` and `later` are `(time_s, position)`).
-/// Returns zero when the two observations are not strictly ordered in time.
-pub fn window_velocity(earlier: (f64, Vector2<f64>), later: (f64, Vector2<f64>)) -> Vector2<f64> {
-    let dt = later.0 - earlier.0;
-    if dt > 0.0 && dt.is_finite() {
-        (later.1 - earlier.1) / dt
-    } else {
-        Vector2::zeros()
-    }
 }
 
 /// Movement extrapolation, Eq. 7: `X + dt * V`, with `|dt|` capped at `tau_memory_s`
@@ -334,19 +323,6 @@ mod tests {
             vel_cov_m2_s2: Matrix2::identity() * 0.01,
             left_view: left,
         }
-    }
-
-    #[test]
-    fn window_velocity_is_displacement_over_seconds() {
-        let v = window_velocity(
-            (1.0, Vector2::new(0.0, 0.0)),
-            (3.0, Vector2::new(4.0, -2.0)),
-        );
-        assert_relative_eq!(v, Vector2::new(2.0, -1.0));
-        assert_eq!(
-            window_velocity((3.0, Vector2::new(0.0, 0.0)), (3.0, Vector2::new(4.0, 0.0))),
-            Vector2::zeros()
-        );
     }
 
     #[test]
