@@ -20,7 +20,8 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use mgmot::track::reid::{associate_exits_to_entries, TrackEnd};
 use mgmot::track::{
-    BBox, Detection, FrameInput, ReidParams, TrackState, Tracker, TrackerParams, WorldObservation,
+    BBox, Detection, FrameInput, ReidParams, SeaDrift, TrackState, Tracker, TrackerParams,
+    WorldObservation,
 };
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
@@ -264,6 +265,16 @@ fn long_gap_case(n: usize) -> (Vec<TrackEnd>, Vec<TrackEnd>) {
 
 fn bench_long_gap(c: &mut Criterion) {
     let params = ReidParams::default();
+    // A swimmer drift estimated from a minute of two swimmers, so the decision uses it.
+    let mut drift = SeaDrift::new(params.drift.clone());
+    for k in 0..1800 {
+        let samples = [
+            (1, 1, Vector2::new(0.1, 0.05)),
+            (1, 2, Vector2::new(0.0, 0.1)),
+        ];
+        drift.observe(f64::from(k) / FPS, &samples);
+    }
+    assert!(drift.estimate(1).is_some());
     for n in [1, 5] {
         let (exits, entries) = long_gap_case(n);
         let name = if n == 1 {
@@ -272,7 +283,7 @@ fn bench_long_gap(c: &mut Criterion) {
             format!("reid_decision_200_in_memory_{n}_new")
         };
         c.bench_function(&name, |b| {
-            b.iter(|| associate_exits_to_entries(&exits, &entries, &params))
+            b.iter(|| associate_exits_to_entries(&exits, &entries, &params, &drift))
         });
     }
 }

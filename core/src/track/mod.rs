@@ -19,6 +19,7 @@
 
 mod assign;
 mod bbox;
+pub mod drift;
 mod kalman;
 mod nms;
 mod offline;
@@ -29,6 +30,7 @@ mod types;
 mod world;
 
 pub use bbox::BBox;
+pub use drift::{DriftEstimate, DriftParams, SeaDrift};
 pub use kalman::BoxKalman;
 pub use nms::nms_prefer_larger;
 pub use offline::{track_sequence, SequenceFrame, SequenceResult, SequenceTrack};

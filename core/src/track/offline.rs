@@ -110,7 +110,7 @@ pub fn track_sequence(
     let mut final_id: BTreeMap<u64, u64> = ids.iter().map(|&id| (id, id)).collect();
     let mut relabelled = Vec::new();
     if params.reid.enabled {
-        let window = params.reid.window_frames as usize;
+        let window = params.offline.entry_window_frames as usize;
         let mut exits = Vec::new();
         let mut exit_ids = Vec::new();
         // Frame-position span of every tracklet with world observations.
@@ -153,9 +153,11 @@ pub fn track_sequence(
         }
         // Exits and entries share indices (one of each per tracklet): a link needs the
         // entry's tracklet to start after the exit's tracklet ended.
-        let links = associate_exits_to_entries_where(&exits, &entries, &params.reid, |i, j| {
-            spans[j].0 > spans[i].1
-        });
+        let drift = tracker.sea_drift();
+        let links =
+            associate_exits_to_entries_where(&exits, &entries, &params.reid, drift, |i, j| {
+                spans[j].0 > spans[i].1
+            });
         let successor: BTreeMap<u64, u64> = links
             .iter()
             .map(|&(i, j)| (exit_ids[i], entry_ids[j]))

@@ -5,6 +5,7 @@ use nalgebra::{Matrix2, Vector2};
 
 use super::assign::{apply_gate, solve_gated};
 use super::bbox::BBox;
+use super::drift::SeaDrift;
 use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
 use super::params::TrackerParams;
@@ -169,6 +170,8 @@ pub struct Tracker {
     last_frame_index: Option<u64>,
     /// Time of the previous step, s: rejects time going backwards; world predictions.
     last_time_s: f64,
+    /// Sea drift per class, estimated from the settled tracks of classes adrift.
+    drift: SeaDrift,
     /// Reused buffers.
     scratch: Scratch,
 }
@@ -178,6 +181,7 @@ impl Tracker {
     pub fn new(params: TrackerParams) -> Result<Self, TrackError> {
         params.validate()?;
         Ok(Self {
+            drift: SeaDrift::new(params.reid.drift.clone()),
             params,
             tracks: Vec::new(),
             memory: Vec::new(),
@@ -192,6 +196,11 @@ impl Tracker {
     /// The parameters in use.
     pub fn params(&self) -> &TrackerParams {
         &self.params
+    }
+
+    /// The sea drift estimated so far (see [`SeaDrift`]).
+    pub fn sea_drift(&self) -> &SeaDrift {
+        &self.drift
     }
 
     /// Number of tracks currently kept (tentative, confirmed and lost).
@@ -255,6 +264,7 @@ impl Tracker {
         self.predict_and_compensate(dt_frames, input);
         self.associate(input);
         self.expire(input);
+        self.observe_drift(input.time_s);
 
         let mut merges = Vec::new();
         if self.params.reid.enabled {
@@ -293,9 +303,10 @@ impl Tracker {
         let Some(entry) = t.entry() else {
             return false;
         };
-        self.memory
-            .iter()
-            .any(|m| m.end_frame < t.start_frame && within_gate(&m.exit, &entry, &self.params.reid))
+        self.memory.iter().any(|m| {
+            m.end_frame < t.start_frame
+                && within_gate(&m.exit, &entry, &self.params.reid, &self.drift)
+        })
     }
 
     /// Ends the sequence: tracks younger than `w` frames get their ReID decision now (with
@@ -596,6 +607,28 @@ impl Tracker {
         }
     }
 
+    /// Feeds the velocities of this frame's matched, settled tracks of classes adrift to the
+    /// drift estimate.
+    fn observe_drift(&mut self, time_s: f64) {
+        let reid = &self.params.reid;
+        let samples: Vec<(u32, u64, Vector2<f64>)> = self
+            .tracks
+            .iter()
+            .filter(|t| t.phase == Phase::Tracked && t.activated && t.matched_det.is_some())
+            .filter_map(|t| {
+                let class_id = t.class_id();
+                let w = t.world.as_ref()?.state();
+                let vel_cov = w.cov.fixed_view::<2, 2>(2, 2).into_owned();
+                (reid.class(class_id).adrift && self.drift.is_settled(&vel_cov)).then_some((
+                    class_id,
+                    t.uid,
+                    w.vel_ne_m_s,
+                ))
+            })
+            .collect();
+        self.drift.observe(time_s, &samples);
+    }
+
     /// Lost-track buffer, duplicate removal, memory-bank expiry.
     fn expire(&mut self, input: &FrameInput) {
         let buffer = self.params.baseline.track_buffer_frames;
@@ -639,35 +672,40 @@ impl Tracker {
         let w = u64::from(self.params.reid.window_frames);
         let mut cand = Vec::new();
         let mut cand_start = Vec::new();
+        let mut due = Vec::new();
         let mut entries = Vec::new();
         for (k, t) in self.tracks.iter_mut().enumerate() {
             if t.reid_decided || t.phase != Phase::Tracked || !t.activated {
                 continue;
             }
-            if !force && frame_index.saturating_sub(t.start_frame) < w {
-                continue;
+            let is_due = force || frame_index.saturating_sub(t.start_frame) >= w;
+            if is_due {
+                t.reid_decided = true;
             }
-            t.reid_decided = true;
             if let Some(e) = t.entry() {
                 cand.push(k);
                 cand_start.push(t.start_frame);
+                due.push(is_due);
                 entries.push(e);
             }
         }
-        if cand.is_empty() || self.memory.is_empty() {
+        if !due.iter().any(|&d| d) || self.memory.is_empty() {
             return;
         }
         let exits: Vec<TrackEnd> = self.memory.iter().map(|m| m.exit).collect();
         let memory = &self.memory;
-        let links =
-            associate_exits_to_entries_where(&exits, &entries, &self.params.reid, |i, j| {
-                cand_start[j] > memory[i].end_frame
-            });
+        let links = associate_exits_to_entries_where(
+            &exits,
+            &entries,
+            &self.params.reid,
+            &self.drift,
+            |i, j| cand_start[j] > memory[i].end_frame,
+        );
         if links.is_empty() {
             return;
         }
         let mut consumed = vec![false; self.memory.len()];
-        for &(mi, ci) in &links {
+        for &(mi, ci) in links.iter().filter(|&&(_, ci)| due[ci]) {
             let (old_uid, old_id) = (self.memory[mi].uid, self.memory[mi].id);
             consumed[mi] = true;
             let t = &mut self.tracks[cand[ci]];

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::drift::DriftParams;
 use super::TrackError;
 
 /// Every parameter of the tracker (baseline, MG-MOT ReID, offline post-processing).
@@ -127,6 +128,12 @@ pub struct ClassReidParams {
     /// between two sightings from different viewpoints (attitude and altitude biases that
     /// the per-detection covariance treats as white), added to both axes.
     pub view_bias_m: f64,
+    /// Whether objects of the class drift with the sea (current plus wind leeway): their
+    /// tracks feed the class's drift estimate ([`DriftParams`]) and long-term ReID carries
+    /// them with it over a whole gap. True for swimmers, life-saving appliances and buoys
+    /// (a moored buoy's estimate is simply zero); false for boats and jetskis, whose own
+    /// motion dominates.
+    pub adrift: bool,
 }
 
 /// Swimmer diffusion, m^2/s (see [`ClassReidParams::SWIMMER`]).
@@ -157,7 +164,8 @@ impl ClassReidParams {
     ///   below a group's spread.
     /// - tau_memory 2 s: a drifting swimmer's velocity is mostly geolocation noise
     ///   differentiated over w frames; extrapolating it for long moves the point away from
-    ///   the truth.
+    ///   the truth. Under the Mahalanobis gate it only applies until the class has a sea
+    ///   drift estimate ([`DriftParams`]); then the drift alone carries the ends.
     /// - lambda 0.1 /s: the gate grows by `lambda * tau_match` = 0.5 m per second of gap, a
     ///   swimmer's sustained speed; it starts to exceed tau_match after a 10 s gap.
     /// - max gate 80 m: a hard bound on the distance under either gate (a swimmer at
@@ -171,6 +179,7 @@ impl ClassReidParams {
         max_gate_m: 80.0,
         diffusion_m2_s: DEFAULT_SWIMMER_DIFFUSION,
         view_bias_m: 2.0,
+        adrift: true,
     };
 
     /// Boat-like objects (boats, jetskis): fast, purposeful motion.
@@ -191,6 +200,7 @@ impl ClassReidParams {
         max_gate_m: 200.0,
         diffusion_m2_s: DEFAULT_BOAT_DIFFUSION,
         view_bias_m: 3.0,
+        adrift: false,
     };
 }
 
@@ -220,10 +230,14 @@ pub struct ReidParams {
     /// velocity window, Eq. 8). Online, a new track is decided once
     /// `frame_index - start_frame >= w` (frame numbers, so dropped frames count), with its
     /// world filter's state then as the entry (position, velocity and their covariances);
-    /// offline, the entry is the filter's state at the tracklet's w-th world observation.
-    /// 30 frames = 1 s at 30 fps: long enough for the velocity to settle, short enough that
-    /// online re-labels come within a second (10 and 20 were measured: better on some
-    /// scenarios, worse on others).
+    /// (offline uses `offline.entry_window_frames`). The tracks still undecided compete in
+    /// the same assignment (so an older entry does not take the exit a younger one fits
+    /// better) but are only linked once due. 10 frames (a third of a second at 30 fps):
+    /// with the sea drift the decision needs the entry's position, not its velocity, and
+    /// the shorter a new track is provisional, the less an operator waits for it (measured
+    /// with gate_chi2 16, `scripts/bench_tracking.sh`, 4 long missions x 4 seeds, online
+    /// IDF1 with provisional tracks withheld against the oracle: w 30 0.804, 15 0.818,
+    /// 10 0.823 on average; gimbal_swings, 4 seeds, +0.09).
     pub window_frames: u32,
     /// Per-class thresholds keyed by detector class id. Default: SeaDronesSee classes,
     /// 1 swimmer, 4 life-saving appliance, 5 buoy swimmer-like; 2 boat, 3 jetski boat-like.
@@ -237,15 +251,20 @@ pub struct ReidParams {
     /// Long-term gate: `mahalanobis` (default) or the paper's `mte`.
     pub long_term_gate: LongTermGate,
     /// Squared Mahalanobis gate of the long-term ReID (`long_term_gate = "mahalanobis"`), and
-    /// the price of "this is a new object" in its assignment. 25 (5 sigma), wider than a
+    /// the price of "this is a new object" in its assignment. 16 (4 sigma), wider than a
     /// chi-square quantile because the per-detection covariances leave out correlated
-    /// errors; measured (`scripts/bench_tracking.sh`, mixed_mission_soak): 9.21 gives offline
-    /// IDF1 0.813, 25 gives 0.847, with max_gate_m 80 for swimmers.
+    /// errors. Measured on the 4 long missions x 4 seeds with the sea drift (offline IDF1
+    /// against the oracle): 12 0.923, 16 0.928, 25 0.924; online (provisional withheld)
+    /// 12 0.801, 16 0.804, 25 0.788 (all at w 30). Before the drift, 25 was best (mixed
+    /// mission, offline 0.847 against 0.813 at 9.21).
     pub gate_chi2: f64,
     /// How long an ended track stays in the memory bank, s. The paper keeps every track of a
     /// sequence (SeaDronesSee clips last a few minutes); online the bank must be bounded:
     /// 600 s covers a clip.
     pub memory_max_s: f64,
+    /// Sea drift estimated from the tracks of the classes that are `adrift`, used by the
+    /// Mahalanobis long-term gate.
+    pub drift: DriftParams,
 }
 
 impl Default for ReidParams {
@@ -260,13 +279,14 @@ impl Default for ReidParams {
             enabled: true,
             short_term: false,
             long_term: true,
-            window_frames: 30,
+            window_frames: 10,
             classes,
             default_class: ClassReidParams::SWIMMER,
             exit_border_fraction: 0.02,
             long_term_gate: LongTermGate::Mahalanobis,
-            gate_chi2: 25.0,
+            gate_chi2: 16.0,
             memory_max_s: 600.0,
+            drift: DriftParams::default(),
         }
     }
 }
@@ -285,12 +305,18 @@ pub struct OfflineParams {
     /// Longest gap, frames, filled by linear interpolation (both passes). The paper gives no
     /// number; 20 is ByteTrack's interpolation default, under a second at 30 fps.
     pub interp_max_gap_frames: u64,
+    /// Offline, the entry of a tracklet for ReID is its world filter's state at this
+    /// observation (or its last, if shorter). Offline has no latency to keep, so it can
+    /// wait longer than the online `reid.window_frames` for the state to settle: 30 (1 s at
+    /// 30 fps) was measured against 10, 60 and 120 on the long missions.
+    pub entry_window_frames: u32,
 }
 
 impl Default for OfflineParams {
     fn default() -> Self {
         Self {
             interp_max_gap_frames: 20,
+            entry_window_frames: 30,
         }
     }
 }
@@ -326,6 +352,8 @@ pub mod limits {
     pub const CHI2: f64 = 1_000.0;
     /// Position diffusion, m^2/s: 10 000 spreads 1 km in 100 s.
     pub const DIFFUSION_M2_S: f64 = 10_000.0;
+    /// Speeds and their standard deviations, m/s: faster than any vessel or drone.
+    pub const SPEED_M_S: f64 = 1_000.0;
 }
 
 fn check(ok: bool, path: &str, requirement: &str) -> Result<(), TrackError> {
@@ -429,6 +457,22 @@ impl TrackerParams {
         )?;
         check_positive(r.memory_max_s, limits::MEMORY_MAX_S, "reid.memory_max_s")?;
         check_positive(r.gate_chi2, limits::CHI2, "reid.gate_chi2")?;
+        check_positive(
+            r.drift.time_constant_s,
+            limits::MEMORY_MAX_S,
+            "reid.drift.time_constant_s",
+        )?;
+        check_range(
+            r.drift.min_sample_s,
+            0.0,
+            limits::MEMORY_MAX_S,
+            "reid.drift.min_sample_s",
+        )?;
+        check_positive(
+            r.drift.max_vel_std_m_s,
+            limits::SPEED_M_S,
+            "reid.drift.max_vel_std_m_s",
+        )?;
         let classes = r
             .classes
             .iter()
@@ -474,6 +518,11 @@ impl TrackerParams {
                 &format!("{path}.view_bias_m"),
             )?;
         }
+        check(
+            (1..=limits::WINDOW_FRAMES).contains(&self.offline.entry_window_frames),
+            "offline.entry_window_frames",
+            &format!("in [1, {}]", limits::WINDOW_FRAMES),
+        )?;
         check(
             self.offline.interp_max_gap_frames <= limits::FRAMES,
             "offline.interp_max_gap_frames",

@@ -22,6 +22,7 @@ use std::collections::BTreeSet;
 use nalgebra::{Matrix2, Vector2};
 
 use super::assign::solve_gated;
+use super::drift::{DriftEstimate, SeaDrift};
 use super::online::mahalanobis2;
 use super::params::{ClassReidParams, LongTermGate, ReidParams};
 
@@ -126,31 +127,47 @@ pub fn expanded_match_threshold(
     expanded.max(tau_match_m).min(max_gate_m.max(tau_match_m))
 }
 
-/// Long-term cost under the Mahalanobis gate (see [`LongTermGate::Mahalanobis`]): the BiME
-/// residual `d` between the exit extrapolated forward and the entry extrapolated backward
-/// (each by at most `tau_memory_s`), its covariance
-/// `S = P_exit + P_entry + dt_exit^2 V_exit + dt_entry^2 V_entry + (diffusion * gap + bias^2) I`
-/// (`dt` the capped extrapolation times), and the cost `d^T S^-1 d`. `None` when
-/// `d^T S^-1 d > gate_chi2` or `|d| > max_gate_m`.
+/// Long-term cost under the Mahalanobis gate (see [`LongTermGate::Mahalanobis`]).
+///
+/// Without a drift estimate for the class, the exit is carried forward and the entry
+/// backward by their own velocities, each for half the gap capped at `tau_memory_s`
+/// (`te`, `tn`; the paper's BiME):
+/// `d = p_exit + te v_exit + tn v_entry - p_entry`, with covariance
+/// `S = P_exit + P_entry + te^2 V_exit + tn^2 V_entry + (diffusion * gap + bias^2) I`.
+///
+/// With a sea drift estimate `D` (covariance `C`, see [`SeaDrift`]) both ends move with the
+/// drift over the whole gap instead, and not by their own velocities: a drifting object's
+/// velocity through the water is a swimmer's undirected paddling plus geolocation noise,
+/// which extrapolation only adds to (measured: `tau_memory_s` 0, 1, 2, 5 and 15 s with the
+/// drift, 0 best on every long mission): `d = p_exit + gap D - p_entry`,
+/// `S = P_exit + P_entry + gap^2 C + (diffusion * gap + bias^2) I`.
+///
+/// The cost is `d^T S^-1 d`; `None` when it exceeds `gate_chi2` or `|d| > max_gate_m`.
 pub fn mahalanobis_long_term_cost(
     exit: &TrackEnd,
     entry: &TrackEnd,
     class: &ClassReidParams,
+    drift: Option<&DriftEstimate>,
     gate_chi2: f64,
 ) -> Option<f64> {
-    let bime = extrapolate_bidirectional(exit, entry, class.tau_memory_s);
     let gap = (entry.time_s - exit.time_s).max(0.0);
-    let (te, tn) = (
-        bime.dt_exit_s.min(class.tau_memory_s),
-        bime.dt_entry_s.min(class.tau_memory_s),
-    );
     let spread = class.diffusion_m2_s * gap + class.view_bias_m * class.view_bias_m;
-    let s = exit.pos_cov_m2
-        + entry.pos_cov_m2
-        + exit.vel_cov_m2_s2 * (te * te)
-        + entry.vel_cov_m2_s2 * (tn * tn)
-        + Matrix2::identity() * spread;
-    let d = bime.exit_forward_ne_m - bime.entry_backward_ne_m;
+    let mut s = exit.pos_cov_m2 + entry.pos_cov_m2 + Matrix2::identity() * spread;
+    let d = match drift {
+        Some(drift) => {
+            s += drift.cov_m2_s2 * (gap * gap);
+            exit.pos_ne_m + drift.vel_ne_m_s * gap - entry.pos_ne_m
+        }
+        None => {
+            let bime = extrapolate_bidirectional(exit, entry, class.tau_memory_s);
+            let (te, tn) = (
+                bime.dt_exit_s.min(class.tau_memory_s),
+                bime.dt_entry_s.min(class.tau_memory_s),
+            );
+            s += exit.vel_cov_m2_s2 * (te * te) + entry.vel_cov_m2_s2 * (tn * tn);
+            bime.exit_forward_ne_m - bime.entry_backward_ne_m
+        }
+    };
     if d.norm() > class.max_gate_m {
         return None;
     }
@@ -171,7 +188,12 @@ fn may_link(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
 
 /// Whether ReID could link this exit to this entry at all: the pair passes the short-term
 /// gate (exits lost inside the view) or the long-term one.
-pub fn within_gate(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
+pub fn within_gate(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    params: &ReidParams,
+    drift: &SeaDrift,
+) -> bool {
     if !params.enabled || !may_link(exit, entry, params) {
         return false;
     }
@@ -179,7 +201,15 @@ pub fn within_gate(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bo
     if params.short_term && !exit.left_view && short_term_cost(exit, entry) <= cp.tau_match_m {
         return true;
     }
-    params.long_term && long_term_cost(exit, entry, cp, params).is_finite()
+    params.long_term
+        && long_term_cost(
+            exit,
+            entry,
+            cp,
+            params,
+            drift.estimate(exit.class_id).as_ref(),
+        )
+        .is_finite()
 }
 
 /// The long-term cost of a pair under `params.long_term_gate`, infinite outside the gate.
@@ -188,10 +218,12 @@ fn long_term_cost(
     entry: &TrackEnd,
     cp: &ClassReidParams,
     params: &ReidParams,
+    drift: Option<&DriftEstimate>,
 ) -> f64 {
     match params.long_term_gate {
         LongTermGate::Mahalanobis => {
-            mahalanobis_long_term_cost(exit, entry, cp, params.gate_chi2).unwrap_or(f64::INFINITY)
+            mahalanobis_long_term_cost(exit, entry, cp, drift, params.gate_chi2)
+                .unwrap_or(f64::INFINITY)
         }
         LongTermGate::Mte => {
             let bime = extrapolate_bidirectional(exit, entry, cp.tau_memory_s);
@@ -213,15 +245,17 @@ fn long_term_cost(
 }
 
 /// Links exits to entries: short-term then long-term ReID, one Hungarian assignment per
-/// class and stage. Returns `(exit index, entry index)` pairs; every exit and every entry
-/// appears at most once. Deterministic: classes are processed in ascending id order and the
-/// solver is deterministic.
+/// class and stage, with `drift` the sea drift estimate (under the Mahalanobis gate).
+/// Returns `(exit index, entry index)` pairs; every exit and every entry appears at most
+/// once. Deterministic: classes are processed in ascending id order and the solver is
+/// deterministic.
 pub fn associate_exits_to_entries(
     exits: &[TrackEnd],
     entries: &[TrackEnd],
     params: &ReidParams,
+    drift: &SeaDrift,
 ) -> Vec<(usize, usize)> {
-    associate_exits_to_entries_where(exits, entries, params, |_, _| true)
+    associate_exits_to_entries_where(exits, entries, params, drift, |_, _| true)
 }
 
 /// [`associate_exits_to_entries`] with an extra admissibility test `allowed(exit index,
@@ -231,6 +265,7 @@ pub fn associate_exits_to_entries_where(
     exits: &[TrackEnd],
     entries: &[TrackEnd],
     params: &ReidParams,
+    drift: &SeaDrift,
     allowed: impl Fn(usize, usize) -> bool,
 ) -> Vec<(usize, usize)> {
     let mut links = Vec::new();
@@ -244,6 +279,7 @@ pub fn associate_exits_to_entries_where(
     let mut pairs = Vec::new();
     for class_id in classes {
         let cp = params.class(class_id);
+        let class_drift = drift.estimate(class_id);
         for long_term in [false, true] {
             if (long_term && !params.long_term) || (!long_term && !params.short_term) {
                 continue;
@@ -265,7 +301,7 @@ pub fn associate_exits_to_entries_where(
                     let c = if !may_link(x, y, params) || !allowed(i, j) {
                         f64::INFINITY
                     } else if long_term {
-                        long_term_cost(x, y, cp, params)
+                        long_term_cost(x, y, cp, params, class_drift.as_ref())
                     } else {
                         let d = short_term_cost(x, y);
                         if d <= cp.tau_match_m {
@@ -377,7 +413,7 @@ mod tests {
             end(1, 1.0, 40.0, 0.0, 0.0, 0.0, false),
         ];
         assert_eq!(
-            associate_exits_to_entries(&exits, &entries, &p),
+            associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(0, 1), (1, 0)]
         );
     }
@@ -387,9 +423,11 @@ mod tests {
         let p = ReidParams::default();
         let exits = [end(1, 5.0, 0.0, 0.0, 0.0, 0.0, false)];
         let other_class = [end(2, 6.0, 0.0, 0.0, 0.0, 0.0, false)];
-        assert!(associate_exits_to_entries(&exits, &other_class, &p).is_empty());
+        assert!(
+            associate_exits_to_entries(&exits, &other_class, &p, &SeaDrift::default()).is_empty()
+        );
         let earlier = [end(1, 4.0, 0.0, 0.0, 0.0, 0.0, false)];
-        assert!(associate_exits_to_entries(&exits, &earlier, &p).is_empty());
+        assert!(associate_exits_to_entries(&exits, &earlier, &p, &SeaDrift::default()).is_empty());
     }
 
     #[test]
@@ -403,15 +441,15 @@ mod tests {
         let entries = [end(1, 60.0, 12.0, 0.0, 0.0, 0.0, false)];
         // gate = 0.1 * 60 * 5 = 30 m
         assert_eq!(
-            associate_exits_to_entries(&exits, &entries, &p),
+            associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(0, 0)]
         );
         p.long_term = false;
-        assert!(associate_exits_to_entries(&exits, &entries, &p).is_empty());
+        assert!(associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()).is_empty());
         // the same displacement after 2 s is beyond the gate
         p.long_term = true;
         let entries = [end(1, 2.0, 12.0, 0.0, 0.0, 0.0, false)];
-        assert!(associate_exits_to_entries(&exits, &entries, &p).is_empty());
+        assert!(associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()).is_empty());
     }
 
     #[test]
@@ -423,22 +461,25 @@ mod tests {
         let x = end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true);
         let soon = end(1, 2.0, 20.0, 0.0, 0.0, 0.0, false);
         let late = end(1, 60.0, 20.0, 0.0, 0.0, 0.0, false);
-        assert!(mahalanobis_long_term_cost(&x, &soon, &cp, p.gate_chi2).is_none());
-        let d2 = mahalanobis_long_term_cost(&x, &late, &cp, p.gate_chi2).unwrap();
+        assert!(mahalanobis_long_term_cost(&x, &soon, &cp, None, p.gate_chi2).is_none());
+        let d2 = mahalanobis_long_term_cost(&x, &late, &cp, None, p.gate_chi2).unwrap();
         // S = 2 I (positions) + 0.01 * 2 * (2 s)^2 I (velocities) + (60 + 4) I
         let var = 2.0 + 0.01 * 4.0 * 2.0 + 60.0 + cp.view_bias_m * cp.view_bias_m;
         assert_relative_eq!(d2, 400.0 / var, epsilon = 1e-9);
-        assert!(within_gate(&x, &late, &p) && !within_gate(&x, &soon, &p));
+        assert!(
+            within_gate(&x, &late, &p, &SeaDrift::default())
+                && !within_gate(&x, &soon, &p, &SeaDrift::default())
+        );
         // beyond max_gate_m nothing links, however long the gap
         let far = end(1, 500.0, cp.max_gate_m + 1.0, 0.0, 0.0, 0.0, false);
-        assert!(mahalanobis_long_term_cost(&x, &far, &cp, 1e9).is_none());
+        assert!(mahalanobis_long_term_cost(&x, &far, &cp, None, 1e9).is_none());
     }
 
     #[test]
     fn the_new_object_hypothesis_stops_forced_links() {
         // 30 s gap, variance 36.08 m^2 per axis. Entry 0 fits exit 0 (d^2 0.03) and, barely,
         // exit 1 (19.9); entry 1 fits exit 0 only (10.0). Linking both (29.9) costs more
-        // than entry 0 -> exit 0 plus "entry 1 is a new object" (0.03 + 25): a
+        // than entry 0 -> exit 0 plus "entry 1 is a new object" (0.03 + gate_chi2 16): a
         // count-maximising assignment would link both and get entry 0 wrong.
         let p = ReidParams::default();
         let exits = [
@@ -450,8 +491,52 @@ mod tests {
             end(1, 30.0, -19.0, 0.0, 0.0, 0.0, false),
         ];
         assert_eq!(
-            associate_exits_to_entries(&exits, &entries, &p),
+            associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(0, 0)]
+        );
+    }
+
+    /// Two swimmers 12 m apart along the drift, the first comes back a minute later carried
+    /// 12 m downwind: by position alone its entry is where the second one left and the link
+    /// is wrong; with the drift estimated from the tracks it is right.
+    #[test]
+    fn sea_drift_carries_a_group_across_a_long_gap() {
+        let p = ReidParams::default();
+        let exits = [
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
+            end(1, 0.0, 0.0, 12.0, 0.0, 0.0, true),
+        ];
+        // The first one to come back (online, entries are decided as they become due).
+        let entries = [end(1, 60.0, 0.0, 12.5, 0.0, 0.0, false)];
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
+            vec![(1, 0)]
+        );
+        let mut drift = SeaDrift::new(p.drift.clone());
+        for k in 0..1800 {
+            // Two swimmers paddling either way across the drift of 0.2 m/s east.
+            let samples = [
+                (1, 1, Vector2::new(0.1, 0.2)),
+                (1, 2, Vector2::new(-0.1, 0.2)),
+            ];
+            drift.observe(f64::from(k) / 30.0, &samples);
+        }
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &drift),
+            vec![(0, 0)]
+        );
+        // The drift of one class says nothing about another.
+        let boats: Vec<TrackEnd> = exits
+            .iter()
+            .map(|e| TrackEnd { class_id: 2, ..*e })
+            .collect();
+        let boat_entries: Vec<TrackEnd> = entries
+            .iter()
+            .map(|e| TrackEnd { class_id: 2, ..*e })
+            .collect();
+        assert_eq!(
+            associate_exits_to_entries(&boats, &boat_entries, &p, &drift),
+            associate_exits_to_entries(&boats, &boat_entries, &p, &SeaDrift::default())
         );
     }
 
@@ -463,7 +548,7 @@ mod tests {
         ) {
             let exits: Vec<_> = xs.iter().map(|&(c, t, n, e, l)| end(c, t, n, e, 0.3, -0.2, l)).collect();
             let entries: Vec<_> = ys.iter().map(|&(c, t, n, e)| end(c, t, n, e, 0.1, 0.0, false)).collect();
-            let links = associate_exits_to_entries(&exits, &entries, &ReidParams::default());
+            let links = associate_exits_to_entries(&exits, &entries, &ReidParams::default(), &SeaDrift::default());
             let mut si = std::collections::HashSet::new();
             let mut sj = std::collections::HashSet::new();
             for &(i, j) in &links {
@@ -472,7 +557,7 @@ mod tests {
                 prop_assert!(entries[j].time_s > exits[i].time_s);
             }
             // deterministic
-            prop_assert_eq!(links, associate_exits_to_entries(&exits, &entries, &ReidParams::default()));
+            prop_assert_eq!(links, associate_exits_to_entries(&exits, &entries, &ReidParams::default(), &SeaDrift::default()));
         }
     }
 }
