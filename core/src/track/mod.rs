@@ -11,6 +11,8 @@
 //!   decided once a new track has lived `w` frames and reported as [`MergeEvent`]s;
 //!   [`Tracker::live_tracks`] lists every kept track with its [`TrackState`] (lost ones
 //!   included); [`Tracker::finish`] decides the pending links at the end of a sequence.
+//! - Both estimate the sea drift of the classes adrift from their own tracks ([`SeaDrift`]),
+//!   which long-term ReID uses to carry a track across a gap of minutes.
 //! - Offline: [`track_sequence`] runs the baseline over a whole sequence and then the paper's
 //!   post-processing, interpolation -> ReID -> interpolation.
 //! - The paper's equations: [`reid::extrapolate`] (Eq. 7),

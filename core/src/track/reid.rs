@@ -10,6 +10,10 @@
 //!    BiME (Eq. 7-8, [`extrapolate_bidirectional`]) and gated by the MTE threshold (Eq. 9,
 //!    [`expanded_match_threshold`]).
 //!
+//! Under the default probabilistic gate ([`LongTermGate::Mahalanobis`]) the long-term stage
+//! carries the ends with the class's sea drift ([`SeaDrift`]) once it is estimated, and
+//! prices "this entry is a new object" in the assignment.
+//!
 //! Each stage is one Hungarian assignment per class (class-wise ReID): tracks of different
 //! classes are never linked.
 //!
@@ -136,11 +140,13 @@ pub fn expanded_match_threshold(
 /// `S = P_exit + P_entry + te^2 V_exit + tn^2 V_entry + (diffusion * gap + bias^2) I`.
 ///
 /// With a sea drift estimate `D` (covariance `C`, see [`SeaDrift`]) both ends move with the
-/// drift over the whole gap instead, and not by their own velocities: a drifting object's
-/// velocity through the water is a swimmer's undirected paddling plus geolocation noise,
-/// which extrapolation only adds to (measured: `tau_memory_s` 0, 1, 2, 5 and 15 s with the
-/// drift, 0 best on every long mission): `d = p_exit + gap D - p_entry`,
-/// `S = P_exit + P_entry + gap^2 C + (diffusion * gap + bias^2) I`.
+/// drift over the whole gap, and by their own velocities relative to it only as far as
+/// those are known: each is shrunk towards zero by its reliability against the class's own
+/// speed (`u = K (v - D)`, `K = Q (Q + V)^-1`, `Q = own_speed_std^2 I`, remaining covariance
+/// `Q - K Q`) and extrapolated for `t = min(gap / 2, own_motion_s)`. A young entry's
+/// velocity (a third of a second of noisy positions) is thus all but ignored, and a long
+/// exit track's is used: `d = p_exit + t u_exit + gap D + t u_entry - p_entry`,
+/// `S = P_exit + P_entry + t^2 (U_exit + U_entry) + gap^2 C + (diffusion * gap + bias^2) I`.
 ///
 /// The cost is `d^T S^-1 d`; `None` when it exceeds `gate_chi2` or `|d| > max_gate_m`.
 pub fn mahalanobis_long_term_cost(
@@ -155,8 +161,18 @@ pub fn mahalanobis_long_term_cost(
     let mut s = exit.pos_cov_m2 + entry.pos_cov_m2 + Matrix2::identity() * spread;
     let d = match drift {
         Some(drift) => {
-            s += drift.cov_m2_s2 * (gap * gap);
-            exit.pos_ne_m + drift.vel_ne_m_s * gap - entry.pos_ne_m
+            // Own velocities relative to the drift, shrunk towards zero by their reliability
+            // (prior: own speed std per axis), for at most `own_motion_s` each.
+            let prior = Matrix2::identity() * class.own_speed_std_m_s.powi(2);
+            let shrink = |v: Vector2<f64>, cov: &Matrix2<f64>| {
+                let gain = prior * (prior + cov).try_inverse().unwrap_or_else(Matrix2::zeros);
+                (gain * (v - drift.vel_ne_m_s), prior - gain * prior)
+            };
+            let t = (gap / 2.0).min(class.own_motion_s);
+            let (v_exit, cov_exit) = shrink(exit.vel_ne_m_s, &exit.vel_cov_m2_s2);
+            let (v_entry, cov_entry) = shrink(entry.vel_ne_m_s, &entry.vel_cov_m2_s2);
+            s += (cov_exit + cov_entry) * (t * t) + drift.cov_m2_s2 * (gap * gap);
+            exit.pos_ne_m + (v_exit + v_entry) * t + drift.vel_ne_m_s * gap - entry.pos_ne_m
         }
         None => {
             let bime = extrapolate_bidirectional(exit, entry, class.tau_memory_s);
@@ -503,11 +519,11 @@ mod tests {
     fn sea_drift_carries_a_group_across_a_long_gap() {
         let p = ReidParams::default();
         let exits = [
-            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
-            end(1, 0.0, 0.0, 12.0, 0.0, 0.0, true),
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.2, true),
+            end(1, 0.0, 0.0, 12.0, 0.0, 0.2, true),
         ];
         // The first one to come back (online, entries are decided as they become due).
-        let entries = [end(1, 60.0, 0.0, 12.5, 0.0, 0.0, false)];
+        let entries = [end(1, 60.0, 0.0, 12.5, 0.0, 0.2, false)];
         assert_eq!(
             associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(1, 0)]
