@@ -48,8 +48,11 @@ struct Obj {
     class_id: u32,
 }
 
+/// Frame the 5 new objects appear in; their ReID decision comes `reid.window_frames` later.
+const APPEAR: u64 = 170;
+
 /// 25 persistent objects, 10 that vanish at frame 100 (memory bank), 5 that appear at
-/// frame 170 (decided at frame 200), 10 clutter detections per frame.
+/// frame [`APPEAR`], 10 clutter detections per frame.
 fn scene(n_frames: u64) -> Vec<FrameInput> {
     let mut rng = Lcg(42);
     let mut objs = Vec::new();
@@ -68,7 +71,7 @@ fn scene(n_frames: u64) -> Vec<FrameInput> {
         add(&mut rng, 0..100);
     }
     for _ in 0..5 {
-        add(&mut rng, 170..u64::MAX);
+        add(&mut rng, APPEAR..u64::MAX);
     }
     let (cx, cy) = (f64::from(IMAGE.0) / 2.0, f64::from(IMAGE.1) / 2.0);
     (0..n_frames)
@@ -178,16 +181,26 @@ impl Measurement for ThreadCpuTime {
     }
 }
 
-/// The two tracker states to step from: (at the ReID decision frame, steady) and the frames.
-fn prepared() -> (Tracker, Tracker, Vec<FrameInput>) {
+/// The two tracker states to step from (at the ReID decision frame, steady), the frames,
+/// and the decision frame.
+fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
     let frames = scene(260);
-    let mut tracker = Tracker::new(TrackerParams::default()).expect("default params");
-    // Warm up to frame 199: frame 200 is the ReID decision frame, 250 a steady one.
-    for f in &frames[..200] {
-        tracker.step(f).expect("ordered frames");
+    let params = TrackerParams::default();
+    let decide = (APPEAR + u64::from(params.reid.window_frames)) as usize;
+    assert!(decide < 250, "the decision frame must come before the steady one");
+    let mut tracker = Tracker::new(params).expect("default params");
+    // Warm up to the frame before the decision; frame 250 is a steady one.
+    let mut provisional = 0;
+    for f in &frames[..decide] {
+        let out = tracker.step(f).expect("ordered frames");
+        provisional = out.tracks.iter().filter(|t| t.provisional).count();
     }
     let at_reid = tracker.clone();
-    for f in &frames[200..250] {
+    // The decision frame really decides: the new tracks are provisional before it, not after.
+    let decided = at_reid.clone().step(&frames[decide]).expect("ordered frames");
+    assert!(provisional > 0, "no provisional track before the decision frame");
+    assert_eq!(decided.tracks.iter().filter(|t| t.provisional).count(), 0);
+    for f in &frames[decide..250] {
         tracker.step(f).expect("ordered frames");
     }
     let steady = tracker;
@@ -199,11 +212,11 @@ fn prepared() -> (Tracker, Tracker, Vec<FrameInput>) {
             .count(),
         30
     );
-    (at_reid, steady, frames)
+    (at_reid, steady, frames, decide)
 }
 
 fn bench_step(c: &mut Criterion) {
-    let (at_reid, steady, frames) = prepared();
+    let (at_reid, steady, frames, decide) = prepared();
     c.bench_function("tracker_step_30_tracks_40_dets", |b| {
         b.iter_batched_ref(
             || steady.clone(),
@@ -214,14 +227,14 @@ fn bench_step(c: &mut Criterion) {
     c.bench_function("tracker_step_30_tracks_40_dets_with_reid_decision", |b| {
         b.iter_batched_ref(
             || at_reid.clone(),
-            |t| t.step(&frames[200]),
+            |t| t.step(&frames[decide]),
             BatchSize::SmallInput,
         )
     });
 }
 
 fn bench_step_cpu(c: &mut Criterion<ThreadCpuTime>) {
-    let (at_reid, steady, frames) = prepared();
+    let (at_reid, steady, frames, decide) = prepared();
     c.bench_function("tracker_step_30_tracks_40_dets_cpu", |b| {
         b.iter_batched_ref(
             || steady.clone(),
@@ -234,7 +247,7 @@ fn bench_step_cpu(c: &mut Criterion<ThreadCpuTime>) {
         |b| {
             b.iter_batched_ref(
                 || at_reid.clone(),
-                |t| t.step(&frames[200]),
+                |t| t.step(&frames[decide]),
                 BatchSize::SmallInput,
             )
         },
