@@ -187,7 +187,10 @@ fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
     let frames = scene(260);
     let params = TrackerParams::default();
     let decide = (APPEAR + u64::from(params.reid.window_frames)) as usize;
-    assert!(decide < 250, "the decision frame must come before the steady one");
+    assert!(
+        decide < 250,
+        "the decision frame must come before the steady one"
+    );
     let mut tracker = Tracker::new(params).expect("default params");
     // Warm up to the frame before the decision; frame 250 is a steady one.
     let mut provisional = 0;
@@ -197,8 +200,14 @@ fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
     }
     let at_reid = tracker.clone();
     // The decision frame really decides: the new tracks are provisional before it, not after.
-    let decided = at_reid.clone().step(&frames[decide]).expect("ordered frames");
-    assert!(provisional > 0, "no provisional track before the decision frame");
+    let decided = at_reid
+        .clone()
+        .step(&frames[decide])
+        .expect("ordered frames");
+    assert!(
+        provisional > 0,
+        "no provisional track before the decision frame"
+    );
     assert_eq!(decided.tracks.iter().filter(|t| t.provisional).count(), 0);
     for f in &frames[decide..250] {
         tracker.step(f).expect("ordered frames");
