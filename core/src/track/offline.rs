@@ -83,6 +83,7 @@ pub fn track_sequence(
 ) -> Result<SequenceResult, TrackError> {
     let mut baseline_params = params.clone();
     baseline_params.reid.enabled = false;
+    baseline_params.baseline.track_buffer_frames = params.offline.track_buffer_frames;
     let mut tracker = Tracker::new(baseline_params)?;
 
     let mut tracklets: BTreeMap<u64, Vec<Point>> = BTreeMap::new();

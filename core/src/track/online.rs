@@ -767,6 +767,75 @@ fn record_world(t: &mut Track, obs: Option<&WorldObservation>, time_s: f64, acce
 mod tests {
     use super::*;
 
+    /// A tracker whose memory bank holds two swimmers that left the view at `t = 0` at east
+    /// 0 m and 10 m, with two new tracks of `ages` frames at east `entries_e_m` (14 s later),
+    /// in frame 1000.
+    fn two_exits_and_entries(entries_e_m: &[f64], ages: &[u64]) -> Tracker {
+        let mut tr = Tracker::new(TrackerParams::default()).unwrap();
+        let exit_state = |e: f64| WorldState {
+            pos_ne_m: Vector2::new(0.0, e),
+            vel_ne_m_s: Vector2::zeros(),
+            cov: nalgebra::Matrix4::from_diagonal(&nalgebra::Vector4::new(0.25, 0.25, 0.01, 0.01)),
+        };
+        for (k, e) in [0.0, 10.0].into_iter().enumerate() {
+            tr.memory.push(MemoryEntry {
+                uid: k as u64 + 1,
+                id: k as u64 + 1,
+                end_frame: 500,
+                exit: track_end(1, 0.0, &exit_state(e), true),
+            });
+        }
+        for (k, (&e, &age)) in entries_e_m.iter().zip(ages).enumerate() {
+            let bbox = BBox::from_center(100.0 + 50.0 * k as f64, 100.0, 10.0, 10.0);
+            let obs = WorldObservation {
+                pos_ne_m: Vector2::new(0.0, e),
+                cov_ne_m2: Matrix2::identity() * 0.25,
+            };
+            tr.tracks.push(Track {
+                uid: 10 + k as u64,
+                id: 10 + k as u64,
+                kf: BoxKalman::initiate(&bbox),
+                phase: Phase::Tracked,
+                activated: true,
+                score: 0.9,
+                class_votes: vec![(1, 10)],
+                start_frame: 1000 - age,
+                end_frame: 1000,
+                world: Some(WorldFilter::initiate(&obs, 14.0)),
+                last_bbox: bbox,
+                last_image_size_px: (1000, 800),
+                reid_decided: false,
+                matched_det: None,
+            });
+        }
+        tr
+    }
+
+    /// Two swimmers of a group come back: the one seen first (east 6 m) is nearer the
+    /// group-mate's exit (10 m) than its own (0 m), but the group-mate seen a few frames
+    /// later (11 m) fits that exit far better. The younger, undecided track takes part in
+    /// the assignment as a rival, so the decision that is due links the first track to its
+    /// own exit; decided alone it would take the group-mate's.
+    #[test]
+    fn an_undecided_rival_keeps_the_due_track_off_a_group_mates_exit() {
+        let w = u64::from(TrackerParams::default().reid.window_frames);
+        let mut tr = two_exits_and_entries(&[6.0, 11.0], &[w, w / 2]);
+        let mut merges = Vec::new();
+        tr.online_reid(1000, false, &mut merges);
+        assert_eq!(merges.len(), 1, "only the due track is decided: {merges:?}");
+        assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 1));
+        // the rival stays undecided and the group-mate's exit stays in the bank for it
+        assert!(!tr.tracks[1].reid_decided);
+        assert_eq!(tr.memory.iter().map(|m| m.id).collect::<Vec<_>>(), vec![2]);
+
+        // without the rival the same due track takes the nearer, wrong exit
+        let mut alone = two_exits_and_entries(&[6.0], &[w]);
+        let mut merges = Vec::new();
+        alone.online_reid(1000, false, &mut merges);
+        assert_eq!(merges.len(), 1);
+        assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 2));
+    }
+
     #[test]
     fn majority_vote_with_deterministic_ties() {
         let mut v = Vec::new();
