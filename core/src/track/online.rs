@@ -9,7 +9,7 @@ use super::drift::SeaDrift;
 use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
 use super::params::TrackerParams;
-use super::reid::{associate_exits_to_entries_where, within_gate, TrackEnd};
+use super::reid::{associate_exits_to_entries_where, link_is_contested, within_gate, TrackEnd};
 use super::types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
 use super::world::{WorldFilter, WorldObservation, WorldState};
 use super::TrackError;
@@ -590,6 +590,9 @@ impl Tracker {
         }
     }
 
+    /// A track lost from view goes to the memory bank (a track whose contested ReID decision
+    /// was being put off goes there undecided, under its own id: measured, linking it to the
+    /// exit it was deferred on instead cost `sector_search` 0.02 IDF1).
     fn mark_lost(&mut self, i: usize) {
         let reid = &self.params.reid;
         let t = &mut self.tracks[i];
@@ -667,29 +670,35 @@ impl Tracker {
     }
 
     /// Links tracks that have lived `w` frames (all undecided ones with `force`) to the memory
-    /// bank.
+    /// bank. A due track whose link is contested (see [`link_is_contested`]) waits, up to
+    /// `reid.defer_max_frames` more, for the rival exit's own entry.
     fn online_reid(&mut self, frame_index: u64, force: bool, merges: &mut Vec<MergeEvent>) {
         let w = u64::from(self.params.reid.window_frames);
+        let last_call = w + u64::from(self.params.reid.defer_max_frames);
         let mut cand = Vec::new();
         let mut cand_start = Vec::new();
         let mut due = Vec::new();
+        let mut final_call = Vec::new();
         let mut entries = Vec::new();
         for (k, t) in self.tracks.iter_mut().enumerate() {
             if t.reid_decided || t.phase != Phase::Tracked || !t.activated {
                 continue;
             }
-            let is_due = force || frame_index.saturating_sub(t.start_frame) >= w;
-            if is_due {
-                t.reid_decided = true;
-            }
-            if let Some(e) = t.entry() {
-                cand.push(k);
-                cand_start.push(t.start_frame);
-                due.push(is_due);
-                entries.push(e);
+            let age = frame_index.saturating_sub(t.start_frame);
+            let is_due = force || age >= w;
+            match t.entry() {
+                Some(e) => {
+                    cand.push(k);
+                    cand_start.push(t.start_frame);
+                    due.push(is_due);
+                    final_call.push(force || age >= last_call);
+                    entries.push(e);
+                }
+                // Without a world position there is nothing to link.
+                None => t.reid_decided |= is_due,
             }
         }
-        if !due.iter().any(|&d| d) || self.memory.is_empty() {
+        if !due.iter().any(|&d| d) {
             return;
         }
         let exits: Vec<TrackEnd> = self.memory.iter().map(|m| m.exit).collect();
@@ -701,40 +710,69 @@ impl Tracker {
             &self.drift,
             |i, j| cand_start[j] > memory[i].end_frame,
         );
-        if links.is_empty() {
-            return;
+        let mut claimed = vec![false; exits.len()];
+        for &(mi, _) in &links {
+            claimed[mi] = true;
         }
-        let mut consumed = vec![false; self.memory.len()];
-        for &(mi, ci) in links.iter().filter(|&&(_, ci)| due[ci]) {
-            let (old_uid, old_id) = (self.memory[mi].uid, self.memory[mi].id);
-            consumed[mi] = true;
-            let t = &mut self.tracks[cand[ci]];
-            merges.push(MergeEvent {
-                new_id: t.id,
-                merged_into_id: old_id,
-                frame_index,
-            });
-            tracing::debug!(
-                new_id = t.id,
-                merged_into_id = old_id,
-                frame_index,
-                "ReID merge"
+        let mut deferred = vec![false; cand.len()];
+        for &(mi, ci) in links.iter().filter(|&&(_, ci)| due[ci] && !final_call[ci]) {
+            deferred[ci] = link_is_contested(
+                &exits,
+                &entries[ci],
+                mi,
+                &claimed,
+                &self.params.reid,
+                &self.drift,
+                |i| cand_start[ci] > memory[i].end_frame,
             );
-            t.id = old_id;
-            // The old track must not come back through IoU under the same id.
-            for o in &mut self.tracks {
-                if o.uid == old_uid && o.phase == Phase::Lost {
-                    o.phase = Phase::Removed;
-                }
+        }
+        for (ci, &k) in cand.iter().enumerate() {
+            if due[ci] && !deferred[ci] {
+                self.tracks[k].reid_decided = true;
             }
         }
-        let mut k = 0;
-        self.memory.retain(|_| {
-            let keep = !consumed[k];
-            k += 1;
-            keep
-        });
+        let mut consumed = vec![false; self.memory.len()];
+        for &(mi, ci) in links.iter().filter(|&&(_, ci)| due[ci] && !deferred[ci]) {
+            consumed[mi] = true;
+            let merge = self.take_link(cand[ci], mi, frame_index);
+            merges.push(merge);
+        }
+        if consumed.iter().any(|&c| c) {
+            let mut k = 0;
+            self.memory.retain(|_| {
+                let keep = !consumed[k];
+                k += 1;
+                keep
+            });
+        }
         merges.sort_by_key(|m| m.new_id);
+    }
+
+    /// Links track `k` to memory entry `mi`: the track takes the old id, and the old track, if
+    /// still in the lost buffer, is removed so it cannot come back through IoU under the same
+    /// id. The caller drops the memory entry.
+    fn take_link(&mut self, k: usize, mi: usize, frame_index: u64) -> MergeEvent {
+        let (old_uid, old_id) = (self.memory[mi].uid, self.memory[mi].id);
+        let t = &mut self.tracks[k];
+        let merge = MergeEvent {
+            new_id: t.id,
+            merged_into_id: old_id,
+            frame_index,
+        };
+        tracing::debug!(
+            new_id = t.id,
+            merged_into_id = old_id,
+            frame_index,
+            "ReID merge"
+        );
+        t.id = old_id;
+        t.reid_decided = true;
+        for o in &mut self.tracks {
+            if o.uid == old_uid && o.phase == Phase::Lost {
+                o.phase = Phase::Removed;
+            }
+        }
+        merge
     }
 }
 
@@ -771,7 +809,15 @@ mod tests {
     /// 0 m and 10 m, with two new tracks of `ages` frames at east `entries_e_m` (14 s later),
     /// in frame 1000.
     fn two_exits_and_entries(entries_e_m: &[f64], ages: &[u64]) -> Tracker {
-        let mut tr = Tracker::new(TrackerParams::default()).unwrap();
+        two_exits_and_entries_with(TrackerParams::default(), entries_e_m, ages)
+    }
+
+    fn two_exits_and_entries_with(
+        params: TrackerParams,
+        entries_e_m: &[f64],
+        ages: &[u64],
+    ) -> Tracker {
+        let mut tr = Tracker::new(params).unwrap();
         let exit_state = |e: f64| WorldState {
             pos_ne_m: Vector2::new(0.0, e),
             vel_ne_m_s: Vector2::zeros(),
@@ -828,12 +874,51 @@ mod tests {
         assert!(!tr.tracks[1].reid_decided);
         assert_eq!(tr.memory.iter().map(|m| m.id).collect::<Vec<_>>(), vec![2]);
 
-        // without the rival the same due track takes the nearer, wrong exit
-        let mut alone = two_exits_and_entries(&[6.0], &[w]);
+        // without the rival (and without waiting for one) the same due track takes the
+        // nearer, wrong exit
+        let mut params = TrackerParams::default();
+        params.reid.defer_margin_chi2 = 0.0;
+        let mut alone = two_exits_and_entries_with(params, &[6.0], &[w]);
         let mut merges = Vec::new();
         alone.online_reid(1000, false, &mut merges);
         assert_eq!(merges.len(), 1);
         assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 2));
+    }
+
+    /// The due track alone, between its own exit (0 m) and a group-mate's (10 m) that nobody
+    /// claims: the two links cost nearly the same, so the decision waits (the track stays
+    /// provisional) until the group-mate comes back and both are decided together, or, if it
+    /// never does, until `defer_max_frames` have passed.
+    #[test]
+    fn a_contested_decision_waits_for_the_group_mate() {
+        let p = TrackerParams::default();
+        let w = u64::from(p.reid.window_frames);
+        let max = u64::from(p.reid.defer_max_frames);
+        assert!(p.reid.defer_margin_chi2 > 0.0 && max > 0);
+        let entry_e_m = 4.8;
+        let mut tr = two_exits_and_entries(&[entry_e_m], &[w]);
+        let mut merges = Vec::new();
+        tr.online_reid(1000, false, &mut merges);
+        assert!(merges.is_empty(), "contested: no decision yet, {merges:?}");
+        assert!(!tr.tracks[0].reid_decided);
+        assert!(tr.is_provisional(&tr.tracks[0]));
+        assert_eq!(tr.memory.len(), 2);
+
+        // The group-mate comes back at 11 m: the next call decides the waiting track, and
+        // jointly, so it takes its own exit.
+        let mut both = two_exits_and_entries(&[entry_e_m, 11.0], &[w + 1, 1]);
+        let mut merges = Vec::new();
+        both.online_reid(1000, false, &mut merges);
+        assert_eq!(merges.len(), 1, "{merges:?}");
+        assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 1));
+        assert!(both.tracks[0].reid_decided && !both.tracks[1].reid_decided);
+
+        // Nobody comes: after `defer_max_frames` more the best link is taken.
+        let mut late = two_exits_and_entries(&[entry_e_m], &[w + max]);
+        let mut merges = Vec::new();
+        late.online_reid(1000, false, &mut merges);
+        assert_eq!(merges.len(), 1);
+        assert!(late.tracks[0].reid_decided);
     }
 
     #[test]

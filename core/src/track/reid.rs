@@ -359,6 +359,46 @@ pub fn associate_exits_to_entries_where(
     links
 }
 
+/// Whether the long-term link of `entry` to `exits[linked]` is contested: another exit of
+/// the same class, not `claimed` by another link and `allowed`, costs at most
+/// `params.defer_margin_chi2` more for this entry, so the two hypotheses are nearly as
+/// likely and the exit's own entry may still come. Only long-term links under the
+/// Mahalanobis gate can be contested (a margin of 0 contests nothing).
+pub fn link_is_contested(
+    exits: &[TrackEnd],
+    entry: &TrackEnd,
+    linked: usize,
+    claimed: &[bool],
+    params: &ReidParams,
+    drift: &SeaDrift,
+    allowed: impl Fn(usize) -> bool,
+) -> bool {
+    let Some(x) = exits.get(linked) else {
+        return false;
+    };
+    if params.defer_margin_chi2 <= 0.0 || params.long_term_gate != LongTermGate::Mahalanobis {
+        return false;
+    }
+    let cp = params.class(x.class_id);
+    if params.short_term && !x.left_view && short_term_cost(x, entry) <= cp.tau_match_m {
+        return false;
+    }
+    let class_drift = drift.estimate(x.class_id);
+    let best = long_term_cost(x, entry, cp, params, class_drift.as_ref());
+    if !best.is_finite() {
+        return false;
+    }
+    exits.iter().enumerate().any(|(i, other)| {
+        i != linked
+            && !claimed.get(i).copied().unwrap_or(true)
+            && other.class_id == x.class_id
+            && may_link(other, entry, params)
+            && allowed(i)
+            && long_term_cost(other, entry, cp, params, class_drift.as_ref())
+                <= best + params.defer_margin_chi2
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -510,6 +550,57 @@ mod tests {
             associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(0, 0)]
         );
+    }
+
+    /// 30 s gap, variance 36.08 m^2 per axis: an entry between two exits is contested by
+    /// the one that costs at most `defer_margin_chi2` more, unless another link claims it,
+    /// it is of another class, or the margin is 0.
+    #[test]
+    fn a_link_is_contested_by_a_free_exit_nearly_as_good() {
+        let p = ReidParams {
+            defer_margin_chi2: 1.0,
+            ..ReidParams::default()
+        };
+        let drift = SeaDrift::default();
+        let exits = [
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
+            end(1, 0.0, 6.0, 0.0, 0.0, 0.0, true),
+            end(1, 0.0, 12.0, 0.0, 0.0, 0.0, true),
+        ];
+        // d^2 to exit 0: 2.8^2 / 36.08 = 0.22; exit 1: 0.29; exit 2: 2.4.
+        let entry = end(1, 30.0, 2.8, 0.0, 0.0, 0.0, false);
+        let free = [false; 3];
+        let any = |_: usize| true;
+        assert!(link_is_contested(&exits, &entry, 0, &free, &p, &drift, any));
+        // exit 1 claimed by another entry: exit 2 is too far to contest
+        let claimed = [false, true, false];
+        assert!(!link_is_contested(
+            &exits, &entry, 0, &claimed, &p, &drift, any
+        ));
+        // exit 1 not admissible for this entry (the tracks overlap in time)
+        assert!(!link_is_contested(
+            &exits,
+            &entry,
+            0,
+            &free,
+            &p,
+            &drift,
+            |i| i != 1
+        ));
+        // another class never contests
+        let mut boats = exits;
+        boats[1].class_id = 2;
+        assert!(!link_is_contested(
+            &boats, &entry, 0, &free, &p, &drift, any
+        ));
+        // margin 0: never
+        let off = ReidParams {
+            defer_margin_chi2: 0.0,
+            ..p.clone()
+        };
+        assert!(!link_is_contested(
+            &exits, &entry, 0, &free, &off, &drift, any
+        ));
     }
 
     /// Two swimmers 12 m apart along the drift, the first comes back a minute later carried
