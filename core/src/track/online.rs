@@ -590,9 +590,8 @@ impl Tracker {
         }
     }
 
-    /// A track lost from view goes to the memory bank (a track whose contested ReID decision
-    /// was being put off goes there undecided, under its own id: measured, linking it to the
-    /// exit it was deferred on instead cost `sector_search` 0.02 IDF1).
+    /// A track lost from view goes to the memory bank; one still waiting on a contested ReID
+    /// decision goes there undecided, under its own id (README, "A contested decision waits").
     fn mark_lost(&mut self, i: usize) {
         let reid = &self.params.reid;
         let t = &mut self.tracks[i];
@@ -734,17 +733,14 @@ impl Tracker {
         let mut consumed = vec![false; self.memory.len()];
         for &(mi, ci) in links.iter().filter(|&&(_, ci)| due[ci] && !deferred[ci]) {
             consumed[mi] = true;
-            let merge = self.take_link(cand[ci], mi, frame_index);
-            merges.push(merge);
+            merges.push(self.take_link(cand[ci], mi, frame_index));
         }
-        if consumed.iter().any(|&c| c) {
-            let mut k = 0;
-            self.memory.retain(|_| {
-                let keep = !consumed[k];
-                k += 1;
-                keep
-            });
-        }
+        let mut k = 0;
+        self.memory.retain(|_| {
+            let keep = !consumed[k];
+            k += 1;
+            keep
+        });
         merges.sort_by_key(|m| m.new_id);
     }
 
@@ -766,7 +762,6 @@ impl Tracker {
             "ReID merge"
         );
         t.id = old_id;
-        t.reid_decided = true;
         for o in &mut self.tracks {
             if o.uid == old_uid && o.phase == Phase::Lost {
                 o.phase = Phase::Removed;

@@ -195,6 +195,17 @@ pub fn short_term_cost(exit: &TrackEnd, entry: &TrackEnd) -> f64 {
     (exit.pos_ne_m - entry.pos_ne_m).norm()
 }
 
+/// Whether the pair passes the short-term stage's gate: the stage is on, the exit was lost
+/// inside the view, and the entry is within `tau_match_m` of it.
+fn within_short_term_gate(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    params: &ReidParams,
+    cp: &ClassReidParams,
+) -> bool {
+    params.short_term && !exit.left_view && short_term_cost(exit, entry) <= cp.tau_match_m
+}
+
 /// Whether an exit may be linked to an entry at all: same class, the entry strictly after
 /// the exit (the two tracks never coexisted), and the gap within the memory.
 fn may_link(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
@@ -214,7 +225,7 @@ pub fn within_gate(
         return false;
     }
     let cp = params.class(exit.class_id);
-    if params.short_term && !exit.left_view && short_term_cost(exit, entry) <= cp.tau_match_m {
+    if within_short_term_gate(exit, entry, params, cp) {
         return true;
     }
     params.long_term
@@ -380,7 +391,7 @@ pub fn link_is_contested(
         return false;
     }
     let cp = params.class(x.class_id);
-    if params.short_term && !x.left_view && short_term_cost(x, entry) <= cp.tau_match_m {
+    if within_short_term_gate(x, entry, params, cp) {
         return false;
     }
     let class_drift = drift.estimate(x.class_id);
