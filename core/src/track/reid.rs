@@ -11,8 +11,9 @@
 //!    [`expanded_match_threshold`]).
 //!
 //! Under the default probabilistic gate ([`LongTermGate::Mahalanobis`]) the long-term stage
-//! carries the ends with the class's sea drift ([`SeaDrift`]) once it is estimated, and
-//! prices "this entry is a new object" in the assignment.
+//! carries the ends with the class's sea drift ([`SeaDrift`]) once it is estimated, ranks
+//! the pairs inside the gate by likelihood ([`ReidParams::likelihood_cost`]), and prices
+//! "this entry is a new object" in the assignment.
 //!
 //! Each stage is one Hungarian assignment per class (class-wise ReID): tracks of different
 //! classes are never linked.
@@ -156,6 +157,38 @@ pub fn mahalanobis_long_term_cost(
     drift: Option<&DriftEstimate>,
     gate_chi2: f64,
 ) -> Option<f64> {
+    long_term_fit(exit, entry, class, drift, gate_chi2).map(|f| f.d2)
+}
+
+/// How well a pair fits under the Mahalanobis gate: the squared distance and the log
+/// determinant of its covariance (see [`mahalanobis_long_term_cost`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LongTermFit {
+    /// `d^T S^-1 d`.
+    d2: f64,
+    /// `ln det(S)`, with `S` in m^2.
+    log_det: f64,
+}
+
+impl LongTermFit {
+    /// The assignment cost: `d2 + log_det` when ranking by likelihood, else `d2`.
+    fn cost(&self, likelihood: bool) -> f64 {
+        if likelihood {
+            self.d2 + self.log_det
+        } else {
+            self.d2
+        }
+    }
+}
+
+/// The residual and covariance of [`mahalanobis_long_term_cost`], gated.
+fn long_term_fit(
+    exit: &TrackEnd,
+    entry: &TrackEnd,
+    class: &ClassReidParams,
+    drift: Option<&DriftEstimate>,
+    gate_chi2: f64,
+) -> Option<LongTermFit> {
     let gap = (entry.time_s - exit.time_s).max(0.0);
     let spread = class.diffusion_m2_s * gap + class.view_bias_m * class.view_bias_m;
     let mut s = exit.pos_cov_m2 + entry.pos_cov_m2 + Matrix2::identity() * spread;
@@ -187,7 +220,10 @@ pub fn mahalanobis_long_term_cost(
     if d.norm() > class.max_gate_m {
         return None;
     }
-    mahalanobis2(d, s).filter(|&d2| d2 <= gate_chi2)
+    let d2 = mahalanobis2(d, s).filter(|&d2| d2 <= gate_chi2)?;
+    // S is positive definite here (mahalanobis2 inverted it and d2 >= 0).
+    let log_det = s.determinant().ln();
+    log_det.is_finite().then_some(LongTermFit { d2, log_det })
 }
 
 /// Short-term ReID cost, Eq. 6: `|| X_t_exit_i - X_t_entry_j ||`, m.
@@ -248,10 +284,8 @@ fn long_term_cost(
     drift: Option<&DriftEstimate>,
 ) -> f64 {
     match params.long_term_gate {
-        LongTermGate::Mahalanobis => {
-            mahalanobis_long_term_cost(exit, entry, cp, drift, params.gate_chi2)
-                .unwrap_or(f64::INFINITY)
-        }
+        LongTermGate::Mahalanobis => long_term_fit(exit, entry, cp, drift, params.gate_chi2)
+            .map_or(f64::INFINITY, |f| f.cost(params.likelihood_cost)),
         LongTermGate::Mte => {
             let bime = extrapolate_bidirectional(exit, entry, cp.tau_memory_s);
             let gate = expanded_match_threshold(
@@ -321,12 +355,23 @@ pub fn associate_exits_to_entries_where(
             if rows.is_empty() || cols.is_empty() {
                 continue;
             }
+            let probabilistic = long_term && params.long_term_gate == LongTermGate::Mahalanobis;
             cost.clear();
+            // Per entry, the smallest ln det(S) among its candidates inside the gate.
+            let mut min_log_det = vec![f64::INFINITY; cols.len()];
             for &i in &rows {
-                for &j in &cols {
+                for (k, &j) in cols.iter().enumerate() {
                     let (x, y) = (&exits[i], &entries[j]);
                     let c = if !may_link(x, y, params) || !allowed(i, j) {
                         f64::INFINITY
+                    } else if probabilistic {
+                        match long_term_fit(x, y, cp, class_drift.as_ref(), params.gate_chi2) {
+                            Some(fit) => {
+                                min_log_det[k] = min_log_det[k].min(fit.log_det);
+                                fit.cost(params.likelihood_cost)
+                            }
+                            None => f64::INFINITY,
+                        }
                     } else if long_term {
                         long_term_cost(x, y, cp, params, class_drift.as_ref())
                     } else {
@@ -342,18 +387,20 @@ pub fn associate_exits_to_entries_where(
             }
             // Under the probabilistic gate "this entry is a new object" is a hypothesis too,
             // priced at the gate: one extra row per entry, usable by that entry only, so the
-            // solver never links a pair just to match more pairs.
-            let probabilistic = long_term && params.long_term_gate == LongTermGate::Mahalanobis;
+            // solver never links a pair just to match more pairs. Ranked by likelihood, the
+            // price adds the entry's smallest ln det(S), so that whether it links at all is
+            // still decided by its best-determined candidate's squared distance.
             let mut n_rows = rows.len();
             if probabilistic {
-                for k in 0..cols.len() {
-                    cost.extend((0..cols.len()).map(|j| {
-                        if j == k {
-                            params.gate_chi2
-                        } else {
-                            f64::INFINITY
-                        }
-                    }));
+                for (k, &log_det) in min_log_det.iter().enumerate() {
+                    let price = if params.likelihood_cost && log_det.is_finite() {
+                        params.gate_chi2 + log_det
+                    } else {
+                        params.gate_chi2
+                    };
+                    cost.extend(
+                        (0..cols.len()).map(|j| if j == k { price } else { f64::INFINITY }),
+                    );
                 }
                 n_rows += cols.len();
             }
@@ -540,6 +587,44 @@ mod tests {
         // beyond max_gate_m nothing links, however long the gap
         let far = end(1, 500.0, cp.max_gate_m + 1.0, 0.0, 0.0, 0.0, false);
         assert!(mahalanobis_long_term_cost(&x, &far, &cp, None, 1e9).is_none());
+    }
+
+    #[test]
+    fn a_recent_exit_beats_an_old_uncertain_one_that_fits_as_many_sigmas() {
+        // Entry at t = 330 s at the origin. Exit `old` ended 330 s before, 18 m east (its
+        // covariance has grown to about 336 m^2 per axis: d^2 about 0.96); exit `recent`
+        // ended 30 s before, 8 m north (about 36 m^2: d^2 about 1.8). By the squared
+        // distance alone the old exit wins; by likelihood the recent one does, because the
+        // old one "fits" only as well as a 336 m^2 spread fits anything.
+        let p = ReidParams::default();
+        assert!(p.likelihood_cost);
+        let old = end(1, 0.0, 0.0, 18.0, 0.0, 0.0, true);
+        let recent = end(1, 300.0, 8.0, 0.0, 0.0, 0.0, true);
+        let entry = end(1, 330.0, 0.0, 0.0, 0.0, 0.0, false);
+        let cp = p.class(1);
+        let d2_old = mahalanobis_long_term_cost(&old, &entry, cp, None, p.gate_chi2).unwrap();
+        let d2_recent = mahalanobis_long_term_cost(&recent, &entry, cp, None, p.gate_chi2).unwrap();
+        assert!(d2_old < d2_recent, "{d2_old} {d2_recent}");
+        let drift = SeaDrift::default();
+        let both = [old, recent];
+        assert_eq!(
+            associate_exits_to_entries(&both, &[entry], &p, &drift),
+            vec![(1, 0)]
+        );
+        let by_distance = ReidParams {
+            likelihood_cost: false,
+            ..p.clone()
+        };
+        assert_eq!(
+            associate_exits_to_entries(&both, &[entry], &by_distance, &drift),
+            vec![(0, 0)]
+        );
+        // Alone, the old exit is still linked: "new object" is priced from the entry's own
+        // candidates, so the larger ln det(S) does not push a fitting pair out of the gate.
+        assert_eq!(
+            associate_exits_to_entries(&[old], &[entry], &p, &drift),
+            vec![(0, 0)]
+        );
     }
 
     #[test]
