@@ -124,6 +124,8 @@ target/release/mgmot-sim follow -s calm_baseline --mavlink udpin:127.0.0.1:14552
   --truth-out "$out/truth" --track-report "$out/track_report.json" > "$out/follow.log" 2>&1 &
 follow=$!
 pids+=($follow)
+# Flights an earlier run left in the same --out: the replay and review below take this run's.
+earlier_flights=$(for f in "$out"/flights/*/; do [ -d "$f" ] && echo "$f"; done)
 target/release/mgmot run -v --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
 mgmot=$!
 pids+=($mgmot)
@@ -136,11 +138,16 @@ wait "$mgmot" "$follow" 2>/dev/null || true
 .venv/bin/python3 scripts/bench_sitl_report.py "$out"
 # The flight mgmot recorded (its tlog holds ArduPilot's own packets): replayed, and reviewed
 # against the simulator's truth.
-flight=$(ls -d "$out"/flights/*/ 2>/dev/null | head -n 1)
+# Flight folders are named after their UTC start, so the newest one this run made sorts last.
+flight=""
+for f in "$out"/flights/*/; do
+  [ -d "$f" ] || continue
+  case $'\n'"$earlier_flights"$'\n' in *$'\n'"$f"$'\n'*) ;; *) flight=$f ;; esac
+done
 if [ -n "$flight" ]; then
   target/release/mgmot replay "$flight" --out "$out/replay" | sed 's/^/replay: /'
   target/release/mgmot review "$flight" --truth "$out/truth" --out "$out/report/report.html" | sed 's/^/review: /'
 else
-  echo "bench: mgmot recorded no flight (see $out/mgmot.log)" >&2
+  echo "bench: mgmot recorded no flight in this run (see $out/mgmot.log)" >&2
 fi
 exit "$fly_rc"
