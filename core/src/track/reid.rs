@@ -181,7 +181,8 @@ impl LongTermFit {
     }
 }
 
-/// The residual and covariance of [`mahalanobis_long_term_cost`], gated.
+/// How well a pair fits under the Mahalanobis gate (see [`mahalanobis_long_term_cost`]):
+/// `None` outside the gate or the `max_gate_m` bound.
 fn long_term_fit(
     exit: &TrackEnd,
     entry: &TrackEnd,
