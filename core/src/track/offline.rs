@@ -71,9 +71,9 @@ struct Point {
 /// 2. linear interpolation of gaps of at most `offline.interp_max_gap_frames` frames inside
 ///    each baseline tracklet;
 /// 3. metadata-guided ReID between all tracklets of the sequence (short-term then long-term,
-///    class-wise; every tracklet has at most one predecessor and one successor, so linked
-///    tracklets form chains that never overlap in time); a chain takes the id of its first
-///    tracklet;
+///    class-wise, long-term gated at `offline.gate_chi2`; every tracklet has at most one
+///    predecessor and one successor, so linked tracklets form chains that never overlap in
+///    time); a chain takes the id of its first tracklet;
 /// 4. linear interpolation again, now also across the gaps between linked tracklets.
 ///
 /// Frames must be in increasing frame order (as for [`Tracker::step`]).
@@ -155,10 +155,12 @@ pub fn track_sequence(
         // Exits and entries share indices (one of each per tracklet): a link needs the
         // entry's tracklet to start after the exit's tracklet ended.
         let drift = tracker.sea_drift();
-        let links =
-            associate_exits_to_entries_where(&exits, &entries, &params.reid, drift, |i, j| {
-                spans[j].0 > spans[i].1
-            });
+        // Offline has its own long-term gate (`offline.gate_chi2`).
+        let mut reid = params.reid.clone();
+        reid.gate_chi2 = params.offline.gate_chi2;
+        let links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, |i, j| {
+            spans[j].0 > spans[i].1
+        });
         let successor: BTreeMap<u64, u64> = links
             .iter()
             .map(|&(i, j)| (exit_ids[i], entry_ids[j]))

@@ -633,8 +633,12 @@ mod tests {
         // 30 s gap, variance 36.08 m^2 per axis. Entry 0 fits exit 0 (d^2 0.03) and, barely,
         // exit 1 (19.9); entry 1 fits exit 0 only (10.0). Linking both (29.9) costs more
         // than entry 0 -> exit 0 plus "entry 1 is a new object" (0.03 + gate_chi2 16): a
-        // count-maximising assignment would link both and get entry 0 wrong.
-        let p = ReidParams::default();
+        // count-maximising assignment would link both and get entry 0 wrong. (Gate 16, the
+        // offline one: at the online default 9 both pairs would be outside the gate.)
+        let p = ReidParams {
+            gate_chi2: 16.0,
+            ..ReidParams::default()
+        };
         let exits = [
             end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
             end(1, 0.0, 27.8, 0.0, 0.0, 0.0, true),
