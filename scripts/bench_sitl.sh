@@ -125,7 +125,7 @@ target/release/mgmot-sim follow -s calm_baseline --mavlink udpin:127.0.0.1:14552
 follow=$!
 pids+=($follow)
 # Flights an earlier run left in the same --out: the replay and review below take this run's.
-earlier_flights=$(for f in "$out"/flights/*/; do [ -d "$f" ] && echo "$f"; done)
+earlier_flights=$(for f in "$out"/flights/*/; do if [ -d "$f" ]; then echo "$f"; fi; done)
 target/release/mgmot run -v --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
 mgmot=$!
 pids+=($mgmot)
