@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The demo: the simulator generates a maritime scene (drone metadata, ground truth and a
-# simulated detector's boxes), mgmot tracks it three ways (plain BoT-SORT baseline without
+# simulated detector's boxes), mgmot tracks it three ways (BoT-SORT baseline without
 # metadata, MG-MOT online as in the air, MG-MOT offline), geolocates every track, and scores
 # each run against the ground truth with the TrackEval-exact metrics.
 #

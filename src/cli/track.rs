@@ -43,7 +43,8 @@ pub struct Args {
     /// a merge); offline: the paper's post-processing over the whole video.
     #[arg(long, value_enum, default_value_t = Mode::Online)]
     mode: Mode,
-    /// Ignore the drone metadata: the plain BoT-SORT baseline, no geolocation or ReID.
+    /// Ignore the drone metadata: the BoT-SORT baseline, no geolocation or ReID (it still
+    /// coasts by `baseline.coast_frames`; a config with 0 gives BoT-SORT's exact output).
     #[arg(long)]
     no_metadata: bool,
     /// Only this video.

@@ -84,6 +84,8 @@ pub fn track_sequence(
     let mut baseline_params = params.clone();
     baseline_params.reid.enabled = false;
     baseline_params.baseline.track_buffer_frames = params.offline.track_buffer_frames;
+    // Interpolation fills the holes from both ends; no predicted boxes in the tracklets.
+    baseline_params.baseline.coast_frames = 0;
     let mut tracker = Tracker::new(baseline_params)?;
 
     let mut tracklets: BTreeMap<u64, Vec<Point>> = BTreeMap::new();

@@ -287,12 +287,45 @@ impl Tracker {
                 provisional: self.is_provisional(t),
             })
             .collect();
+        tracks.extend(self.coasting(input));
         tracks.sort_by_key(|t| t.id);
         Ok(FrameOutput {
             frame_index: input.frame_index,
             tracks,
             merges,
         })
+    }
+
+    /// Lost tracks still reported in this frame (`baseline.coast_frames`): reported before,
+    /// missed for at most `coast_frames` frames, their predicted box wholly inside the image.
+    fn coasting<'a>(&'a self, input: &'a FrameInput) -> impl Iterator<Item = TrackOutput> + 'a {
+        let coast = self.params.baseline.coast_frames;
+        let accel = self.params.baseline.world_accel_std_m_s2;
+        let (w, h) = input.image_size_px;
+        self.tracks
+            .iter()
+            .filter(move |t| {
+                t.phase == Phase::Lost
+                    && t.activated
+                    && input.frame_index.saturating_sub(t.end_frame) <= coast
+            })
+            .filter_map(move |t| {
+                let b = t.kf.bbox();
+                let inside = b.x >= 0.0
+                    && b.y >= 0.0
+                    && b.x + b.w <= f64::from(w)
+                    && b.y + b.h <= f64::from(h);
+                inside.then(|| TrackOutput {
+                    id: t.id,
+                    bbox: b,
+                    score: t.score,
+                    class_id: t.class_id(),
+                    state: TrackState::Lost,
+                    world: t.world.as_ref().map(|wf| wf.predicted(input.time_s, accel)),
+                    detection_index: None,
+                    provisional: self.is_provisional(t),
+                })
+            })
     }
 
     /// Whether a reported track is provisional (see [`TrackOutput::provisional`]).
@@ -914,6 +947,82 @@ mod tests {
         late.online_reid(1000, false, &mut merges);
         assert_eq!(merges.len(), 1);
         assert!(late.tracks[0].reid_decided);
+    }
+
+    /// A frame of 640 x 480 px at 30 fps with swimmer detections at these box centres.
+    fn frame(index: u64, centres: &[(f64, f64)]) -> FrameInput {
+        FrameInput {
+            frame_index: index,
+            time_s: index as f64 / 30.0,
+            image_size_px: (640, 480),
+            detections: centres
+                .iter()
+                .map(|&(x, y)| Detection {
+                    bbox: BBox::from_center(x, y, 20.0, 20.0),
+                    score: 0.9,
+                    class_id: 1,
+                    world: None,
+                })
+                .collect(),
+            image_motion: None,
+        }
+    }
+
+    /// Steps a swimmer moving right by 4 px a frame through frames 1-5 at `x0`, then frames
+    /// 6-9 without detections; returns each frame's reported tracks.
+    fn missed_after_five(params: TrackerParams, x0: f64) -> Vec<Vec<TrackOutput>> {
+        let mut tr = Tracker::new(params).unwrap();
+        (1..=9)
+            .map(|i| {
+                let centres = if i <= 5 {
+                    vec![(x0 + 4.0 * i as f64, 200.0)]
+                } else {
+                    vec![]
+                };
+                tr.step(&frame(i, &centres)).unwrap().tracks
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_missed_track_coasts_for_coast_frames_with_its_predicted_box() {
+        let out = missed_after_five(TrackerParams::default(), 100.0);
+        assert_eq!(TrackerParams::default().baseline.coast_frames, 2);
+        let id = out[4][0].id;
+        assert_eq!(out[4][0].state, TrackState::Confirmed);
+        assert!(out[4][0].detection_index.is_some());
+        for f in [5, 6] {
+            assert_eq!(out[f].len(), 1, "frame {} coasts", f + 1);
+            let t = &out[f][0];
+            assert_eq!(
+                (t.id, t.state, t.detection_index),
+                (id, TrackState::Lost, None)
+            );
+            // The box keeps moving with the filter's velocity.
+            assert!(t.bbox.center().0 > out[f - 1][0].bbox.center().0);
+        }
+        assert!(
+            out[7].is_empty() && out[8].is_empty(),
+            "coasting ends after 2 frames"
+        );
+    }
+
+    #[test]
+    fn no_coasting_at_zero_or_out_of_the_image() {
+        let mut p = TrackerParams::default();
+        p.baseline.coast_frames = 0;
+        let out = missed_after_five(p, 100.0);
+        assert_eq!(out[4].len(), 1);
+        assert!(out[5].is_empty());
+        // A swimmer whose predicted box crosses the right border is not reported.
+        let out = missed_after_five(TrackerParams::default(), 610.0);
+        assert_eq!(out[4].len(), 1);
+        assert!(out[4][0].bbox.x + out[4][0].bbox.w <= 640.0);
+        assert!(out[5]
+            .iter()
+            .chain(&out[6])
+            .all(|t| t.state == TrackState::Confirmed));
+        assert!(out[5].is_empty());
     }
 
     #[test]

@@ -66,12 +66,14 @@ pub struct TrackOutput {
     pub score: f32,
     /// Majority vote over the classes of all detections matched so far.
     pub class_id: u32,
-    /// Track state (always [`TrackState::Confirmed`] for reported tracks).
+    /// Track state: [`TrackState::Confirmed`] for a track matched in this frame,
+    /// [`TrackState::Lost`] for one reported while coasting (`baseline.coast_frames`).
     pub state: TrackState,
     /// World position, velocity and covariance, when the track has had a world observation.
     pub world: Option<WorldState>,
-    /// Index into [`FrameInput::detections`] of the detection matched in this frame. Always
-    /// set in [`FrameOutput::tracks`]; `None` for lost tracks from `Tracker::live_tracks`.
+    /// Index into [`FrameInput::detections`] of the detection matched in this frame. Set for
+    /// the confirmed tracks of [`FrameOutput::tracks`]; `None` for coasting tracks there and
+    /// for lost tracks from `Tracker::live_tracks`.
     pub detection_index: Option<usize>,
     /// The track is new and may still turn out to be a track the memory bank holds: its
     /// ReID decision is pending (it has lived fewer than `reid.window_frames` frames, or its
@@ -97,7 +99,8 @@ pub struct MergeEvent {
 pub struct FrameOutput {
     /// Frame number of the input.
     pub frame_index: u64,
-    /// Confirmed tracks with their current ids, ordered by id.
+    /// Reported tracks with their current ids, ordered by id: the confirmed ones and the
+    /// coasting ones (state [`TrackState::Lost`], see `baseline.coast_frames`).
     pub tracks: Vec<TrackOutput>,
     /// Re-labels decided in this frame.
     pub merges: Vec<MergeEvent>,
