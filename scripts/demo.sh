@@ -48,7 +48,8 @@ PY
   echo "geolocated tracks: $(ls "$dir"/offline/*_tracks.csv)"
 done
 echo
-echo "baseline = BoT-SORT without metadata; online = MG-MOT as flown (a re-identified track is"
+echo "baseline = BoT-SORT without metadata (a missed track still reported 2 frames, as online);"
+echo "online = MG-MOT as flown (a re-identified track is"
 echo "re-labelled w frames after it reappears, which the metrics count as an ID switch);"
 echo "offline = MG-MOT with the paper's interpolation -> ReID -> interpolation post-processing."
 
