@@ -73,6 +73,26 @@ impl Track {
         ))
     }
 
+    /// The track as reported: its Kalman box and the detection matched in this frame (none
+    /// when it was missed), with the given state, world state and provisional flag.
+    fn output(
+        &self,
+        state: TrackState,
+        world: Option<WorldState>,
+        provisional: bool,
+    ) -> TrackOutput {
+        TrackOutput {
+            id: self.id,
+            bbox: self.kf.bbox(),
+            score: self.score,
+            class_id: self.class_id(),
+            state,
+            world,
+            detection_index: self.matched_det,
+            provisional,
+        }
+    }
+
     /// The track's entry as seen by ReID: its world filter's state now (when the ReID
     /// decision is taken, `w` frames after the track started, so the velocity has had
     /// those observations to settle).
@@ -220,19 +240,11 @@ impl Tracker {
                 (Phase::Lost, _) => TrackState::Lost,
                 (Phase::Removed, _) => TrackState::Removed,
             };
-            TrackOutput {
-                id: t.id,
-                bbox: t.kf.bbox(),
-                score: t.score,
-                class_id: t.class_id(),
-                state,
-                world: t
-                    .world
-                    .as_ref()
-                    .map(|w| w.predicted(self.last_time_s, accel)),
-                detection_index: t.matched_det,
-                provisional: false,
-            }
+            let world = t
+                .world
+                .as_ref()
+                .map(|w| w.predicted(self.last_time_s, accel));
+            t.output(state, world, false)
         })
     }
 
@@ -276,15 +288,9 @@ impl Tracker {
             .tracks
             .iter()
             .filter(|t| t.phase == Phase::Tracked && t.activated)
-            .map(|t| TrackOutput {
-                id: t.id,
-                bbox: t.kf.bbox(),
-                score: t.score,
-                class_id: t.class_id(),
-                state: TrackState::Confirmed,
-                world: t.world.as_ref().map(|w| *w.state()),
-                detection_index: t.matched_det,
-                provisional: self.is_provisional(t),
+            .map(|t| {
+                let world = t.world.as_ref().map(|w| *w.state());
+                t.output(TrackState::Confirmed, world, self.is_provisional(t))
             })
             .collect();
         tracks.extend(self.coasting(input));
@@ -315,15 +321,9 @@ impl Tracker {
                     && b.y >= 0.0
                     && b.x + b.w <= f64::from(w)
                     && b.y + b.h <= f64::from(h);
-                inside.then(|| TrackOutput {
-                    id: t.id,
-                    bbox: b,
-                    score: t.score,
-                    class_id: t.class_id(),
-                    state: TrackState::Lost,
-                    world: t.world.as_ref().map(|wf| wf.predicted(input.time_s, accel)),
-                    detection_index: None,
-                    provisional: self.is_provisional(t),
+                inside.then(|| {
+                    let world = t.world.as_ref().map(|wf| wf.predicted(input.time_s, accel));
+                    t.output(TrackState::Lost, world, self.is_provisional(t))
                 })
             })
     }
