@@ -7,8 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use super::bbox::BBox;
 use super::online::{add_vote, majority_class, track_end, Tracker};
+use super::params::ReidParams;
 use super::params::TrackerParams;
-use super::reid::associate_exits_to_entries_where;
+use super::reid::{associate_exits_to_entries_where, with_chain_velocity, ChainPoint, TrackEnd};
 use super::types::FrameInput;
 use super::world::WorldState;
 use super::TrackError;
@@ -120,6 +121,8 @@ pub fn track_sequence(
         let mut spans = Vec::new();
         let mut entries = Vec::new();
         let mut entry_ids = Vec::new();
+        // First world observation of every tracklet (index shared with exits and entries).
+        let mut firsts = Vec::new();
         for (&id, points) in &tracklets {
             let class_id = tracklet_class(points);
             let worlds: Vec<(usize, WorldState)> = points
@@ -148,6 +151,11 @@ pub fn track_sequence(
             // one of a shorter tracklet), when the velocity has settled.
             let (entry_pos, entry) = worlds[window.min(worlds.len() - 1)];
             entries.push(track_end(class_id, frames[entry_pos].time_s, &entry, false));
+            let (first_pos, first) = worlds[0];
+            firsts.push(ChainPoint {
+                time_s: frames[first_pos].time_s,
+                pos_ne_m: first.pos_ne_m,
+            });
             entry_ids.push(id);
             spans.push((
                 points.first().map_or(0, |p| p.pos),
@@ -160,9 +168,27 @@ pub fn track_sequence(
         // Offline has its own long-term gate (`offline.gate_chi2`).
         let mut reid = params.reid.clone();
         reid.gate_chi2 = params.offline.gate_chi2;
-        let links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, |i, j| {
-            spans[j].0 > spans[i].1
-        });
+        let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1;
+        let mut links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, allowed);
+        if params.offline.chain_velocity {
+            let (exits, entries) = with_chain_velocities(
+                &exits,
+                &entries,
+                &firsts,
+                &links,
+                &reid,
+                params.offline.chain_velocity_min_s,
+            );
+            // Own motion is carried over the whole gap in this pass (see
+            // `offline.chain_velocity`).
+            let mut chain_reid = reid.clone();
+            for c in std::iter::once(&mut chain_reid.default_class)
+                .chain(chain_reid.classes.values_mut())
+            {
+                c.own_motion_s = f64::INFINITY;
+            }
+            links = associate_exits_to_entries_where(&exits, &entries, &chain_reid, drift, allowed);
+        }
         let successor: BTreeMap<u64, u64> = links
             .iter()
             .map(|&(i, j)| (exit_ids[i], entry_ids[j]))
@@ -222,6 +248,55 @@ pub fn track_sequence(
         frames: out_frames,
         relabelled,
     })
+}
+
+/// The ends of a second ReID pass with chain velocities: tracklet `i` has exit `exits[i]`,
+/// entry `entries[i]` and first observation `firsts[i]`; `links` (exit, entry) from the
+/// first pass make chains. An exit moves with the average velocity from its chain's first
+/// observation, an entry with the average velocity to its chain's last observation (its
+/// chain's last exit), each where [`with_chain_velocity`] applies.
+fn with_chain_velocities(
+    exits: &[TrackEnd],
+    entries: &[TrackEnd],
+    firsts: &[ChainPoint],
+    links: &[(usize, usize)],
+    reid: &ReidParams,
+    min_span_s: f64,
+) -> (Vec<TrackEnd>, Vec<TrackEnd>) {
+    let n = exits.len();
+    let mut successor = vec![None; n];
+    let mut predecessor = vec![None; n];
+    for &(i, j) in links {
+        successor[i] = Some(j);
+        predecessor[j] = Some(i);
+    }
+    // Links go forward in time, so these walks end; the bound guards them.
+    let walk = |start: usize, next: &[Option<usize>]| {
+        let mut cur = start;
+        for _ in 0..n {
+            match next[cur] {
+                Some(k) => cur = k,
+                None => break,
+            }
+        }
+        cur
+    };
+    let mut new_exits = exits.to_vec();
+    let mut new_entries = entries.to_vec();
+    for i in 0..n {
+        let class = reid.class(exits[i].class_id);
+        let chain_first = firsts[walk(i, &predecessor)];
+        new_exits[i] = with_chain_velocity(
+            &exits[i],
+            chain_first,
+            ChainPoint::of(&exits[i]),
+            class,
+            min_span_s,
+        );
+        let chain_last = ChainPoint::of(&exits[walk(i, &successor)]);
+        new_entries[i] = with_chain_velocity(&entries[i], firsts[i], chain_last, class, min_span_s);
+    }
+    (new_exits, new_entries)
 }
 
 fn tracklet_class(points: &[Point]) -> u32 {
@@ -320,6 +395,56 @@ mod tests {
         let r = track_sequence(&frames, &TrackerParams::default()).unwrap();
         assert_eq!(r.frames.len(), 3);
         assert!(r.frames.iter().all(|f| f.tracks.is_empty()));
+    }
+
+    fn swimmer_end(t: f64, e: f64) -> TrackEnd {
+        TrackEnd {
+            class_id: 1,
+            time_s: t,
+            pos_ne_m: nalgebra::Vector2::new(0.0, e),
+            vel_ne_m_s: nalgebra::Vector2::zeros(),
+            pos_cov_m2: nalgebra::Matrix2::identity(),
+            vel_cov_m2_s2: nalgebra::Matrix2::identity(),
+            left_view: true,
+        }
+    }
+
+    /// Tracklets 0 -> 1 -> 2 linked, 3 alone: an exit averages from its chain's first
+    /// observation, an entry to its chain's last exit; a lone tracklet from its own ends.
+    #[test]
+    fn chain_velocities_follow_the_first_pass_chains() {
+        // (first observation, entry, exit) of each tracklet, east m at t s.
+        let tracklets = [(0.0, 0.0), (50.0, 10.0), (100.0, 20.0), (0.0, 100.0)];
+        let firsts: Vec<ChainPoint> = tracklets
+            .iter()
+            .map(|&(t, e)| ChainPoint::of(&swimmer_end(t, e)))
+            .collect();
+        let entries: Vec<TrackEnd> = tracklets
+            .iter()
+            .map(|&(t, e)| swimmer_end(t + 1.0, e))
+            .collect();
+        // Each tracklet lasts 20 s and moves 4 m east.
+        let exits: Vec<TrackEnd> = tracklets
+            .iter()
+            .map(|&(t, e)| swimmer_end(t + 20.0, e + 4.0))
+            .collect();
+        let reid = ReidParams::default();
+        let (ex, en) =
+            with_chain_velocities(&exits, &entries, &firsts, &[(0, 1), (1, 2)], &reid, 30.0);
+        let east = |e: &TrackEnd| e.vel_ne_m_s.y;
+        // Exit 0: its chain is itself, 20 s < 30 s: unchanged.
+        assert_eq!(ex[0], exits[0]);
+        // Exit 1: chain from tracklet 0's first (t 0, 0 m) to itself (t 70, 14 m).
+        assert_relative_eq!(east(&ex[1]), 14.0 / 70.0);
+        // Exit 2: from t 0, 0 m to t 120, 24 m.
+        assert_relative_eq!(east(&ex[2]), 24.0 / 120.0);
+        // Entry 0: from its own first (t 0, 0 m) to the chain's last exit (t 120, 24 m).
+        assert_relative_eq!(east(&en[0]), 24.0 / 120.0);
+        // Entry 1: from t 50, 10 m to t 120, 24 m.
+        assert_relative_eq!(east(&en[1]), 14.0 / 70.0);
+        // Entry 2 and the lone tracklet 3: 20 s chains, unchanged.
+        assert_eq!(en[2], entries[2]);
+        assert_eq!((ex[3], en[3]), (exits[3], entries[3]));
     }
 
     #[test]

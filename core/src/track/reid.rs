@@ -54,6 +54,59 @@ pub struct TrackEnd {
     pub left_view: bool,
 }
 
+/// Where and when an object was observed, for [`with_chain_velocity`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChainPoint {
+    /// Time, s.
+    pub time_s: f64,
+    /// World position, north/east m.
+    pub pos_ne_m: Vector2<f64>,
+}
+
+impl ChainPoint {
+    /// The time and position of a track end.
+    pub fn of(end: &TrackEnd) -> Self {
+        Self {
+            time_s: end.time_s,
+            pos_ne_m: end.pos_ne_m,
+        }
+    }
+}
+
+/// Chain velocity: `end` with its velocity replaced by the object's average velocity from
+/// `from` to `to`, the first and last observations of the chain of tracklets already linked
+/// on that side of the end (offline: the chain's first observation to an exit, an entry to
+/// its chain's last observation). A swimmer's own swimming direction persists for a
+/// minute or more, while the world filter's velocity at an end follows seconds of wobble;
+/// over long gaps the chain's average predicts the displacement better than the drift alone
+/// (README, "Chain velocity").
+///
+/// Applies only to classes adrift (the drift model carries it), and when the chain spans at
+/// least `min_span_s`; otherwise `end` is returned unchanged. The average's uncertainty as
+/// a predictor of the coming gap is taken as the class's own speed prior
+/// (`own_speed_std_m_s^2 I`), so the drift model shrinks it half-way towards the drift.
+pub fn with_chain_velocity(
+    end: &TrackEnd,
+    from: ChainPoint,
+    to: ChainPoint,
+    class: &ClassReidParams,
+    min_span_s: f64,
+) -> TrackEnd {
+    let span = to.time_s - from.time_s;
+    if !class.adrift || !(span >= min_span_s && span > 0.0) {
+        return *end;
+    }
+    let vel = (to.pos_ne_m - from.pos_ne_m) / span;
+    if !vel.iter().all(|v| v.is_finite()) {
+        return *end;
+    }
+    TrackEnd {
+        vel_ne_m_s: vel,
+        vel_cov_m2_s2: Matrix2::identity() * class.own_speed_std_m_s.powi(2),
+        ..*end
+    }
+}
+
 /// Movement extrapolation, Eq. 7: `X + dt * V`, with `|dt|` capped at `tau_memory_s`
 /// ("we will not extrapolate further beyond tau_memory"). A negative `dt_s` extrapolates
 /// backwards (used for entries).
@@ -704,6 +757,20 @@ mod tests {
         ));
     }
 
+    /// The swimmers' drift estimated from a minute of two swimmers paddling north and south
+    /// across a drift of `east_m_s` east.
+    fn paddling_drift(p: &ReidParams, east_m_s: f64) -> SeaDrift {
+        let mut drift = SeaDrift::new(p.drift.clone());
+        for k in 0..1800 {
+            let samples = [
+                (1, 1, Vector2::new(0.1, east_m_s)),
+                (1, 2, Vector2::new(-0.1, east_m_s)),
+            ];
+            drift.observe(f64::from(k) / 30.0, &samples);
+        }
+        drift
+    }
+
     /// Two swimmers 12 m apart along the drift, the first comes back a minute later carried
     /// 12 m downwind: by position alone its entry is where the second one left and the link
     /// is wrong; with the drift estimated from the tracks it is right.
@@ -720,15 +787,7 @@ mod tests {
             associate_exits_to_entries(&exits, &entries, &p, &SeaDrift::default()),
             vec![(1, 0)]
         );
-        let mut drift = SeaDrift::new(p.drift.clone());
-        for k in 0..1800 {
-            // Two swimmers paddling either way across the drift of 0.2 m/s east.
-            let samples = [
-                (1, 1, Vector2::new(0.1, 0.2)),
-                (1, 2, Vector2::new(-0.1, 0.2)),
-            ];
-            drift.observe(f64::from(k) / 30.0, &samples);
-        }
+        let drift = paddling_drift(&p, 0.2);
         assert_eq!(
             associate_exits_to_entries(&exits, &entries, &p, &drift),
             vec![(0, 0)]
@@ -745,6 +804,91 @@ mod tests {
         assert_eq!(
             associate_exits_to_entries(&boats, &boat_entries, &p, &drift),
             associate_exits_to_entries(&boats, &boat_entries, &p, &SeaDrift::default())
+        );
+    }
+
+    fn point(t: f64, n: f64, e: f64) -> ChainPoint {
+        ChainPoint {
+            time_s: t,
+            pos_ne_m: Vector2::new(n, e),
+        }
+    }
+
+    #[test]
+    fn chain_velocity_averages_long_chains_of_classes_adrift_only() {
+        let swimmer = ClassReidParams::SWIMMER;
+        let e = end(1, 60.0, 0.0, 30.0, 0.4, -0.2, true);
+        let c = with_chain_velocity(
+            &e,
+            point(0.0, 0.0, 0.0),
+            point(60.0, 0.0, 30.0),
+            &swimmer,
+            30.0,
+        );
+        assert_relative_eq!(c.vel_ne_m_s, Vector2::new(0.0, 0.5));
+        assert_relative_eq!(c.vel_cov_m2_s2, Matrix2::identity() * 0.15 * 0.15);
+        // Everything else is the end's own.
+        assert_eq!(
+            (c.time_s, c.pos_ne_m, c.left_view),
+            (e.time_s, e.pos_ne_m, e.left_view)
+        );
+        // Too short a chain, no span at all, or a class that does not drift: unchanged.
+        let unchanged = [
+            (40.0, &swimmer, 30.0),
+            (60.0, &swimmer, 0.0),
+            (0.0, &ClassReidParams::BOAT, 30.0),
+        ];
+        for (from_s, class, min_span_s) in unchanged {
+            let from = point(from_s, 0.0, 0.0);
+            let to = point(60.0, 0.0, 30.0);
+            assert_eq!(with_chain_velocity(&e, from, to, class, min_span_s), e);
+        }
+    }
+
+    /// Two swimmers 10 m apart: the first has been swimming east at 0.3 m/s for two minutes,
+    /// the second has stayed put; both filters end on a wobble of zero velocity. A new track
+    /// appears 100 s later 8.5 m east of the first: by the filters' velocities it is the
+    /// second one, by the chains' it is the first, which swam on.
+    #[test]
+    fn chain_velocity_carries_a_swimmer_that_keeps_swimming() {
+        let p = ReidParams::default();
+        let drift = paddling_drift(&p, 0.0);
+        let exits = [
+            end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true),
+            end(1, 0.0, 0.0, 10.0, 0.0, 0.0, true),
+        ];
+        let mut entry = end(1, 100.0, 0.0, 8.5, 0.0, 0.0, false);
+        entry.vel_cov_m2_s2 = Matrix2::identity();
+        let entries = [entry];
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &drift),
+            vec![(1, 0)]
+        );
+        let swimmer = p.class(1);
+        let chained = [
+            with_chain_velocity(
+                &exits[0],
+                point(-120.0, 0.0, -36.0),
+                ChainPoint::of(&exits[0]),
+                swimmer,
+                30.0,
+            ),
+            with_chain_velocity(
+                &exits[1],
+                point(-120.0, 0.0, 10.0),
+                ChainPoint::of(&exits[1]),
+                swimmer,
+                30.0,
+            ),
+        ];
+        let mut unbounded = p.clone();
+        for c in std::iter::once(&mut unbounded.default_class).chain(unbounded.classes.values_mut())
+        {
+            c.own_motion_s = f64::INFINITY;
+        }
+        assert_eq!(
+            associate_exits_to_entries(&chained, &entries, &unbounded, &drift),
+            vec![(0, 0)]
         );
     }
 
