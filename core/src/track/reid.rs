@@ -93,7 +93,7 @@ pub fn with_chain_velocity(
     min_span_s: f64,
 ) -> TrackEnd {
     let span = to.time_s - from.time_s;
-    if !class.adrift || !(span >= min_span_s && span > 0.0) {
+    if !(class.adrift && span >= min_span_s && span > 0.0) {
         return *end;
     }
     let vel = (to.pos_ne_m - from.pos_ne_m) / span;
