@@ -53,6 +53,18 @@ struct Track {
     reid_decided: bool,
     /// Detection matched in the current frame.
     matched_det: Option<usize>,
+    /// While undecided: the memory entry ReID would link this track to now, whose id it is
+    /// reported under (`reid.provisional_old_id`).
+    provisional_link: Option<ProvisionalLink>,
+}
+
+/// The old track an undecided track is reported as while its decision is pending.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct ProvisionalLink {
+    /// Reported id of the old track.
+    id: u64,
+    /// Baseline identity of the old track (its coasting report gives way).
+    uid: u64,
 }
 
 impl Track {
@@ -74,7 +86,8 @@ impl Track {
     }
 
     /// The track as reported: its Kalman box and the detection matched in this frame (none
-    /// when it was missed), with the given state, world state and provisional flag.
+    /// when it was missed), with the given state, world state and provisional flag, under
+    /// its provisional old id while it has one.
     fn output(
         &self,
         state: TrackState,
@@ -82,7 +95,7 @@ impl Track {
         provisional: bool,
     ) -> TrackOutput {
         TrackOutput {
-            id: self.id,
+            id: self.provisional_link.map_or(self.id, |l| l.id),
             bbox: self.kf.bbox(),
             score: self.score,
             class_id: self.class_id(),
@@ -293,7 +306,13 @@ impl Tracker {
                 t.output(TrackState::Confirmed, world, self.is_provisional(t))
             })
             .collect();
-        tracks.extend(self.coasting(input));
+        // A coasting track whose provisional link went stale (its old id was since taken by a
+        // track in view) is not reported: ids are unique in a frame.
+        for c in self.coasting(input) {
+            if !tracks.iter().any(|o| o.id == c.id) {
+                tracks.push(c);
+            }
+        }
         tracks.sort_by_key(|t| t.id);
         Ok(FrameOutput {
             frame_index: input.frame_index,
@@ -314,6 +333,10 @@ impl Tracker {
                 t.phase == Phase::Lost
                     && t.activated
                     && input.frame_index.saturating_sub(t.end_frame) <= coast
+                    && !self
+                        .tracks
+                        .iter()
+                        .any(|o| o.provisional_link.is_some_and(|l| l.uid == t.uid))
             })
             .filter_map(move |t| {
                 let b = t.kf.bbox();
@@ -481,6 +504,7 @@ impl Tracker {
                 last_bbox: dets[j].bbox,
                 last_image_size_px: input.image_size_px,
                 reid_decided: false,
+                provisional_link: None,
                 matched_det: Some(j),
             };
             add_vote(&mut t.class_votes, dets[j].class_id);
@@ -703,7 +727,8 @@ impl Tracker {
 
     /// Links tracks that have lived `w` frames (all undecided ones with `force`) to the memory
     /// bank. A due track whose link is contested (see [`link_is_contested`]) waits, up to
-    /// `reid.defer_max_frames` more, for the rival exit's own entry.
+    /// `reid.defer_max_frames` more, for the rival exit's own entry. Then, with
+    /// `reid.provisional_old_id`, the tracks still undecided get their provisional old ids.
     fn online_reid(&mut self, frame_index: u64, force: bool, merges: &mut Vec<MergeEvent>) {
         let w = u64::from(self.params.reid.window_frames);
         let last_call = w + u64::from(self.params.reid.defer_max_frames);
@@ -713,6 +738,11 @@ impl Tracker {
         let mut final_call = Vec::new();
         let mut entries = Vec::new();
         for (k, t) in self.tracks.iter_mut().enumerate() {
+            // A lost track keeps its provisional link while it coasts (in the memory bank it
+            // waits under its own id); the others get theirs anew.
+            if t.phase != Phase::Lost {
+                t.provisional_link = None;
+            }
             if t.reid_decided || t.phase != Phase::Tracked || !t.activated {
                 continue;
             }
@@ -730,14 +760,40 @@ impl Tracker {
                 None => t.reid_decided |= is_due,
             }
         }
-        if !due.iter().any(|&d| d) {
-            return;
+        if due.iter().any(|&d| d) {
+            self.decide(
+                &cand,
+                &cand_start,
+                &due,
+                &final_call,
+                &entries,
+                frame_index,
+                merges,
+            );
         }
+        if self.params.reid.provisional_old_id && !force {
+            self.provisional_links(&cand, &cand_start, &due, &entries);
+        }
+    }
+
+    /// The decisions of the due tracks (`due`), in one assignment with the undecided ones as
+    /// rivals; contested ones wait unless it is their `final_call`.
+    #[allow(clippy::too_many_arguments)]
+    fn decide(
+        &mut self,
+        cand: &[usize],
+        cand_start: &[u64],
+        due: &[bool],
+        final_call: &[bool],
+        entries: &[TrackEnd],
+        frame_index: u64,
+        merges: &mut Vec<MergeEvent>,
+    ) {
         let exits: Vec<TrackEnd> = self.memory.iter().map(|m| m.exit).collect();
         let memory = &self.memory;
         let links = associate_exits_to_entries_where(
             &exits,
-            &entries,
+            entries,
             &self.params.reid,
             &self.drift,
             |i, j| cand_start[j] > memory[i].end_frame,
@@ -775,6 +831,58 @@ impl Tracker {
             keep
         });
         merges.sort_by_key(|m| m.new_id);
+    }
+
+    /// Provisional old ids (`reid.provisional_old_id`): the candidates still undecided are
+    /// assigned to the memory bank as at a decision, and each linked one is reported under
+    /// its exit's id. A track not yet due enters with its position only (its velocity taken
+    /// as the class's own-speed prior around zero): over its first frames the filter's
+    /// velocity is still too uncertain to carry it anywhere, and would open the gate to
+    /// exits far away.
+    fn provisional_links(
+        &mut self,
+        cand: &[usize],
+        cand_start: &[u64],
+        due: &[bool],
+        entries: &[TrackEnd],
+    ) {
+        if self.memory.is_empty() {
+            return;
+        }
+        let mut undecided = Vec::new();
+        let mut guess_entries = Vec::new();
+        for (ci, &k) in cand.iter().enumerate() {
+            if self.tracks[k].reid_decided {
+                continue;
+            }
+            let mut e = entries[ci];
+            if !due[ci] {
+                let sd = self.params.reid.class(e.class_id).own_speed_std_m_s;
+                e.vel_ne_m_s = Vector2::zeros();
+                e.vel_cov_m2_s2 = Matrix2::identity() * (sd * sd);
+            }
+            undecided.push(ci);
+            guess_entries.push(e);
+        }
+        if undecided.is_empty() {
+            return;
+        }
+        let exits: Vec<TrackEnd> = self.memory.iter().map(|m| m.exit).collect();
+        let memory = &self.memory;
+        let links = associate_exits_to_entries_where(
+            &exits,
+            &guess_entries,
+            &self.params.reid,
+            &self.drift,
+            |i, j| cand_start[undecided[j]] > memory[i].end_frame,
+        );
+        for (mi, j) in links {
+            let m = &self.memory[mi];
+            self.tracks[cand[undecided[j]]].provisional_link = Some(ProvisionalLink {
+                id: m.id,
+                uid: m.uid,
+            });
+        }
     }
 
     /// Links track `k` to memory entry `mi`: the track takes the old id, and the old track, if
@@ -879,6 +987,7 @@ mod tests {
                 last_bbox: bbox,
                 last_image_size_px: (1000, 800),
                 reid_decided: false,
+                provisional_link: None,
                 matched_det: None,
             });
         }
@@ -947,6 +1056,88 @@ mod tests {
         late.online_reid(1000, false, &mut merges);
         assert_eq!(merges.len(), 1);
         assert!(late.tracks[0].reid_decided);
+    }
+
+    /// A young track beside a swimmer's exit, not yet due for its decision, is reported
+    /// under that swimmer's old id, flagged provisional, and the old track's own coasting
+    /// report gives way to it; with `provisional_old_id` off it keeps its new id.
+    #[test]
+    fn an_undecided_track_is_reported_under_the_old_id_it_would_take() {
+        let w = u64::from(TrackerParams::default().reid.window_frames);
+        assert!(TrackerParams::default().reid.provisional_old_id);
+        let mut tr = two_exits_and_entries(&[0.5], &[w / 2]);
+        // the old swimmer 1 was lost a frame ago and would still coast
+        let mut old = tr.tracks[0].clone();
+        (old.uid, old.id, old.phase, old.start_frame, old.end_frame) =
+            (1, 1, Phase::Lost, 400, 999);
+        tr.tracks.push(old);
+        let input = frame(1000, &[]);
+        assert_eq!(
+            tr.coasting(&input).count(),
+            1,
+            "before the provisional link it coasts"
+        );
+
+        let mut merges = Vec::new();
+        tr.online_reid(1000, false, &mut merges);
+        assert!(merges.is_empty(), "not due yet: {merges:?}");
+        assert!(!tr.tracks[0].reid_decided);
+        let out = tr.tracks[0].output(
+            TrackState::Confirmed,
+            None,
+            tr.is_provisional(&tr.tracks[0]),
+        );
+        assert_eq!((out.id, out.provisional), (1, true));
+        assert_eq!(tr.coasting(&input).count(), 0, "the old track gives way");
+
+        // once decided (the exit of swimmer 2, 10 m away, is a rival close enough to make
+        // the decision wait; at its last frame), it takes that id and the provisional link
+        // is gone
+        let last_call = w + u64::from(TrackerParams::default().reid.defer_max_frames);
+        tr.tracks[0].start_frame = 1000 - last_call;
+        tr.online_reid(1000, false, &mut merges);
+        assert_eq!(merges.len(), 1);
+        assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 1));
+        assert_eq!(tr.tracks[0].provisional_link, None);
+        let out = tr.tracks[0].output(
+            TrackState::Confirmed,
+            None,
+            tr.is_provisional(&tr.tracks[0]),
+        );
+        assert_eq!((out.id, out.provisional), (1, false));
+
+        let mut params = TrackerParams::default();
+        params.reid.provisional_old_id = false;
+        let mut off = two_exits_and_entries_with(params, &[0.5], &[w / 2]);
+        off.online_reid(1000, false, &mut merges);
+        assert_eq!(off.tracks[0].provisional_link, None);
+        let out = off.tracks[0].output(TrackState::Confirmed, None, true);
+        assert_eq!(out.id, 10);
+    }
+
+    /// A track one frame old, 20 m beyond a swimmer's exit: its filter's velocity is still
+    /// the initial guess (10 m/s std), which would carry it back to that exit within the
+    /// gate, so the provisional old id is sought from its position alone and it gets none.
+    #[test]
+    fn a_young_track_gets_no_provisional_id_from_its_unsettled_velocity() {
+        let mut tr = two_exits_and_entries(&[30.0], &[1]);
+        let mut merges = Vec::new();
+        tr.online_reid(1000, false, &mut merges);
+        assert!(merges.is_empty());
+        assert_eq!(tr.tracks[0].provisional_link, None);
+
+        // control: with its raw entry (the filter's velocity and covariance) the same
+        // assignment links it to the nearer exit
+        let entry = tr.tracks[0].entry().unwrap();
+        let exits: Vec<TrackEnd> = tr.memory.iter().map(|m| m.exit).collect();
+        let links = associate_exits_to_entries_where(
+            &exits,
+            &[entry],
+            &tr.params.reid,
+            &tr.drift,
+            |_, _| true,
+        );
+        assert_eq!(links, vec![(1, 0)]);
     }
 
     /// A frame of 640 x 480 px at 30 fps with swimmer detections at these box centres.

@@ -292,6 +292,22 @@ pub struct ReidParams {
     /// is taken with what is known (15 gained less than 30; 60 was no better and kept
     /// tracks provisional longer).
     pub defer_max_frames: u32,
+    /// Online, an undecided new track is reported under the old id it would be linked to
+    /// now (`true`, default): every frame while any track is undecided, after the frame's
+    /// decisions, the undecided tracks are assigned to the memory bank as at a decision (a
+    /// track not yet `window_frames` old by its position alone: its filter's velocity has
+    /// not settled), and a track linked to an old track's exit carries that track's id, still
+    /// flagged provisional, until its decision (which may confirm it, move it to another exit
+    /// or give it its own id). The old track's coasting report gives way to it; lost before
+    /// its decision, the track coasts under the old id and waits in the memory bank under
+    /// its own. `false`: an undecided track carries its own new id until its decision.
+    /// Measured on 10 scenarios (7 at 12 seeds, 3 at 4), online IDF1 over the oracle's with
+    /// every confirmed track reported: 0.900 -> 0.923 on average, the long missions +0.024
+    /// to +0.048, `gimbal_swings` +0.034, `leave_and_return` +0.034, no run lower by more
+    /// than 0.01; predicted ids per true object near those of the output with provisional
+    /// tracks withheld (`expanding_square` 4.96 -> 1.39, withheld 1.30). The output with
+    /// provisional tracks withheld is unchanged.
+    pub provisional_old_id: bool,
     /// Per-class thresholds keyed by detector class id. Default: SeaDronesSee classes,
     /// 1 swimmer, 4 life-saving appliance, 5 buoy swimmer-like; 2 boat, 3 jetski boat-like.
     pub classes: BTreeMap<u32, ClassReidParams>,
@@ -350,6 +366,7 @@ impl Default for ReidParams {
             window_frames: 10,
             defer_margin_chi2: 1.0,
             defer_max_frames: 30,
+            provisional_old_id: true,
             classes,
             default_class: ClassReidParams::SWIMMER,
             exit_border_fraction: 0.02,
