@@ -1,7 +1,9 @@
 //! Online tracker step: 30 live tracks and 40 detections per frame (30 objects plus 10
 //! low-confidence clutter detections), camera-motion compensation on, world observations
-//! on. Two cases: a steady-state frame, and a frame in which 5 new tracks reach `w` frames
-//! and are matched against a memory bank of 10 lost tracks (online ReID decision).
+//! on. Three cases: a steady-state frame, a frame in which 5 new tracks reach `w` frames
+//! and are matched against a memory bank of 10 lost tracks (online ReID decision), and the
+//! frame before it, in which the same assignment gives the undecided tracks their
+//! provisional old ids (`reid.provisional_old_id`).
 //! Target (issue 2): median <= 50 us per frame on one core.
 //!
 //! Third case (issue 14): one long-gap ReID decision against a memory bank of 200 ended
@@ -183,7 +185,17 @@ impl Measurement for ThreadCpuTime {
 
 /// The two tracker states to step from (at the ReID decision frame, steady), the frames,
 /// and the decision frame.
-fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
+/// Tracker states: before a frame whose undecided tracks only get their provisional old id
+/// (`decide - 1`), before the decision frame, and before the steady frame 250.
+struct Prepared {
+    before_provisional: Tracker,
+    at_reid: Tracker,
+    steady: Tracker,
+    frames: Vec<FrameInput>,
+    decide: usize,
+}
+
+fn prepared() -> Prepared {
     let frames = scene(260);
     let params = TrackerParams::default();
     let decide = (APPEAR + u64::from(params.reid.window_frames)) as usize;
@@ -193,11 +205,12 @@ fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
     );
     let mut tracker = Tracker::new(params).expect("default params");
     // Warm up to the frame before the decision; frame 250 is a steady one.
-    let mut provisional = 0;
-    for f in &frames[..decide] {
-        let out = tracker.step(f).expect("ordered frames");
-        provisional = out.tracks.iter().filter(|t| t.provisional).count();
+    for f in &frames[..decide - 1] {
+        tracker.step(f).expect("ordered frames");
     }
+    let before_provisional = tracker.clone();
+    let out = tracker.step(&frames[decide - 1]).expect("ordered frames");
+    let provisional = out.tracks.iter().filter(|t| t.provisional).count();
     let at_reid = tracker.clone();
     // The decision frame really decides: the new tracks are provisional before it, not after.
     let decided = at_reid
@@ -221,46 +234,43 @@ fn prepared() -> (Tracker, Tracker, Vec<FrameInput>, usize) {
             .count(),
         30
     );
-    (at_reid, steady, frames, decide)
+    Prepared {
+        before_provisional,
+        at_reid,
+        steady,
+        frames,
+        decide,
+    }
+}
+
+/// The three step cases under one measurement; `suffix` tells the measurements apart.
+fn step_cases<M: Measurement + 'static>(c: &mut Criterion<M>, suffix: &str) {
+    let p = prepared();
+    let cases = [
+        ("", &p.steady, 250),
+        ("_with_reid_decision", &p.at_reid, p.decide),
+        ("_with_provisional_ids", &p.before_provisional, p.decide - 1),
+    ];
+    for (name, tracker, frame) in cases {
+        c.bench_function(
+            &format!("tracker_step_30_tracks_40_dets{name}{suffix}"),
+            |b| {
+                b.iter_batched_ref(
+                    || tracker.clone(),
+                    |t| t.step(&p.frames[frame]),
+                    BatchSize::SmallInput,
+                )
+            },
+        );
+    }
 }
 
 fn bench_step(c: &mut Criterion) {
-    let (at_reid, steady, frames, decide) = prepared();
-    c.bench_function("tracker_step_30_tracks_40_dets", |b| {
-        b.iter_batched_ref(
-            || steady.clone(),
-            |t| t.step(&frames[250]),
-            BatchSize::SmallInput,
-        )
-    });
-    c.bench_function("tracker_step_30_tracks_40_dets_with_reid_decision", |b| {
-        b.iter_batched_ref(
-            || at_reid.clone(),
-            |t| t.step(&frames[decide]),
-            BatchSize::SmallInput,
-        )
-    });
+    step_cases(c, "");
 }
 
 fn bench_step_cpu(c: &mut Criterion<ThreadCpuTime>) {
-    let (at_reid, steady, frames, decide) = prepared();
-    c.bench_function("tracker_step_30_tracks_40_dets_cpu", |b| {
-        b.iter_batched_ref(
-            || steady.clone(),
-            |t| t.step(&frames[250]),
-            BatchSize::SmallInput,
-        )
-    });
-    c.bench_function(
-        "tracker_step_30_tracks_40_dets_with_reid_decision_cpu",
-        |b| {
-            b.iter_batched_ref(
-                || at_reid.clone(),
-                |t| t.step(&frames[decide]),
-                BatchSize::SmallInput,
-            )
-        },
-    );
+    step_cases(c, "_cpu");
 }
 
 /// A memory bank of 200 exits (swimmers and boats, ended 1-300 s before) and `n` entries.
