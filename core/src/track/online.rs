@@ -407,6 +407,7 @@ impl Tracker {
     }
 
     fn predict_and_compensate(&mut self, dt_frames: f64, input: &FrameInput) {
+        let cmc = self.params.baseline.camera_motion_compensation;
         for t in &mut self.tracks {
             t.matched_det = None;
             let in_pool = t.phase == Phase::Lost || (t.phase == Phase::Tracked && t.activated);
@@ -418,7 +419,7 @@ impl Tracker {
                 }
                 t.kf.predict(dt_frames);
             }
-            if let Some(h) = &input.image_motion {
+            if let Some(h) = input.image_motion.as_ref().filter(|_| cmc) {
                 t.kf.apply_homography(h);
             }
         }
@@ -940,6 +941,7 @@ fn record_world(t: &mut Track, obs: Option<&WorldObservation>, time_s: f64, acce
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix3;
 
     /// A tracker whose memory bank holds two swimmers that left the view at `t = 0` at east
     /// 0 m and 10 m, with two new tracks of `ages` frames at east `entries_e_m` (14 s later),
@@ -1214,6 +1216,44 @@ mod tests {
             .chain(&out[6])
             .all(|t| t.state == TrackState::Confirmed));
         assert!(out[5].is_empty());
+    }
+
+    /// A still swimmer at (200, 200) for frames 1-5, then the camera pans: frame 6 has the
+    /// homography of a 60 px shift to the right and the swimmer's box there. Returns the
+    /// ids reported in frames 5 and 6.
+    fn pan_by_60(params: TrackerParams) -> (Vec<u64>, Vec<u64>) {
+        let mut tr = Tracker::new(params).unwrap();
+        let mut before = Vec::new();
+        for i in 1..=5 {
+            before = tr.step(&frame(i, &[(200.0, 200.0)])).unwrap().tracks;
+        }
+        let mut panned = frame(6, &[(260.0, 200.0)]);
+        panned.image_motion = Some(Matrix3::new(1.0, 0.0, 60.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0));
+        let after = tr.step(&panned).unwrap().tracks;
+        let ids = |v: &[TrackOutput]| -> Vec<u64> {
+            v.iter()
+                .filter(|t| t.detection_index.is_some())
+                .map(|t| t.id)
+                .collect()
+        };
+        (ids(&before), ids(&after))
+    }
+
+    #[test]
+    fn camera_motion_compensation_carries_tracks_through_a_pan_and_can_be_switched_off() {
+        let (before, after) = pan_by_60(TrackerParams::default());
+        assert_eq!(before.len(), 1);
+        assert_eq!(
+            after, before,
+            "compensated: the same track matches after the pan"
+        );
+        let mut p = TrackerParams::default();
+        p.baseline.camera_motion_compensation = false;
+        let (before, after) = pan_by_60(p);
+        assert_eq!(before.len(), 1);
+        // The 20 px box moved by 60 px: no overlap with the uncompensated prediction, so the
+        // detection starts a new, still tentative track and nothing matched is reported.
+        assert!(after.is_empty(), "uncompensated: the pan loses the track");
     }
 
     #[test]
