@@ -13,22 +13,23 @@
 //!   with velocity and its horizontal uncertainty, as the outputs report it.
 
 use crate::geo::{
-    CameraModel, FrameGeometry, FrameMetadata, Geodetic, Geolocator, LocalTangentFrame, PoseNoise,
+    AttitudeSmoother, AttitudeSmoothing, CameraModel, FrameGeometry, FrameMetadata, Geodetic,
+    Geolocator, LocalTangentFrame, PoseNoise,
 };
 use crate::track::{Detection, FrameInput, WorldObservation, WorldState};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
-/// The tracker's input for one frame. `geometry` is this frame's camera geometry and
-/// `previous` the previous frame's (the frame given to the tracker just before); either is
-/// `None` without a usable pose, and then the boxes have no world position or there is no
-/// motion compensation. Detections' own `world` fields are replaced.
+/// The tracker's input for one frame. `geometry` is this frame's camera geometry (`None`
+/// without a usable pose: the boxes then have no world position) and `image_motion` the
+/// sea-plane homography from the previous frame's pixels to this frame's, when there is one
+/// (see [`CameraMotion`]). Detections' own `world` fields are replaced.
 pub fn tracker_input(
     frame_index: u64,
     time_s: f64,
     image_size_px: (u32, u32),
     detections: impl IntoIterator<Item = Detection>,
     geometry: Option<&FrameGeometry<'_>>,
-    previous: Option<&FrameGeometry<'_>>,
+    image_motion: Option<Matrix3<f64>>,
 ) -> FrameInput {
     let detections = detections
         .into_iter()
@@ -37,10 +38,6 @@ pub fn tracker_input(
             ..d
         })
         .collect();
-    let image_motion = match (previous, geometry) {
-        (Some(p), Some(c)) => p.image_motion_to(c).ok(),
-        _ => None,
-    };
     FrameInput {
         frame_index,
         time_s,
@@ -50,8 +47,76 @@ pub fn tracker_input(
     }
 }
 
+/// Metadata camera-motion compensation between consecutive frames: the sea-plane homography
+/// between the poses of the last frame the tracker took and this one, with the camera
+/// attitude smoothed ([`AttitudeSmoother`]; the geolocation keeps the measured attitude).
+/// [`CameraMotion::image_motion`] stages the smoother's next state and
+/// [`CameraMotion::taken`] commits it, so a frame the tracker refused leaves no trace.
+#[derive(Debug, Clone)]
+pub struct CameraMotion {
+    smoother: AttitudeSmoother,
+    /// The last frame taken with a pose: its index and pose, attitude smoothed.
+    previous: Option<(u64, FrameMetadata)>,
+    /// What [`CameraMotion::taken`] commits: the frame's index, the smoother after it and
+    /// its smoothed pose.
+    pending: Option<(u64, AttitudeSmoother, FrameMetadata)>,
+}
+
+impl CameraMotion {
+    /// Nothing seen yet.
+    pub fn new(smoothing: AttitudeSmoothing) -> Self {
+        Self {
+            smoother: AttitudeSmoother::new(smoothing),
+            previous: None,
+            pending: None,
+        }
+    }
+
+    /// The homography carrying the previous frame's pixels to frame `index`'s (taken at
+    /// `time_s`, with pose `meta`), when the previous frame taken is `index - 1` and both
+    /// have a pose.
+    pub fn image_motion(
+        &mut self,
+        geolocator: &Geolocator,
+        index: u64,
+        time_s: f64,
+        meta: Option<&FrameMetadata>,
+    ) -> Option<Matrix3<f64>> {
+        let Some(meta) = meta else {
+            self.pending = None;
+            return None;
+        };
+        let (smoother, attitude) = self.smoother.update(time_s, meta.camera_attitude);
+        let smoothed = FrameMetadata {
+            camera_attitude: attitude,
+            ..*meta
+        };
+        self.pending = Some((index, smoother, smoothed));
+        let (prev_index, prev) = self.previous.as_ref()?;
+        if prev_index.checked_add(1) != Some(index) {
+            return None;
+        }
+        let from = geolocator.frame(prev).ok()?;
+        let to = geolocator.frame(&smoothed).ok()?;
+        from.image_motion_to(&to).ok()
+    }
+
+    /// The tracker took frame `index`: the next frame's motion starts from it (from nothing
+    /// when it had no pose).
+    pub fn taken(&mut self, index: u64) {
+        match self.pending.take() {
+            Some((i, smoother, smoothed)) if i == index => {
+                self.smoother = smoother;
+                self.previous = Some((index, smoothed));
+            }
+            _ => self.previous = None,
+        }
+    }
+}
+
 /// How [`InputBuilder`] geolocates: the camera's horizontal field of view, the pose noise and
-/// the longest range a box is geolocated at.
+/// the longest range a box is geolocated at; and how it smooths the attitude for the motion
+/// compensation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GeoSettings {
     /// Horizontal field of view (deg).
@@ -60,18 +125,21 @@ pub struct GeoSettings {
     pub noise: PoseNoise,
     /// Boxes further than this (m) are not geolocated.
     pub max_range_m: f64,
+    /// Smoothing of the attitude for the motion compensation (the tracker parameters'
+    /// `baseline.cmc_smoothing`).
+    pub motion_smoothing: AttitudeSmoothing,
 }
 
 /// Builds the tracker's inputs of consecutive frames, remembering what the next frame needs:
 /// the geolocator (its local frame is the nadir point of the first frame with a pose), the
-/// pose of the last frame the tracker took (motion compensation only between consecutive
-/// frame indices) and the tracker's clock (forced monotonic: a source that restarted
+/// [`CameraMotion`] state (the pose of the last frame the tracker took: motion compensation
+/// only between consecutive frame indices) and the tracker's clock (forced monotonic: a source that restarted
 /// continues just after the last frame's time).
 #[derive(Debug, Clone)]
 pub struct InputBuilder {
     geo: GeoSettings,
     geolocator: Option<Geolocator>,
-    previous: Option<(u64, FrameMetadata)>,
+    motion: CameraMotion,
     last_time_s: Option<f64>,
 }
 
@@ -81,7 +149,7 @@ impl InputBuilder {
         Self {
             geo,
             geolocator: None,
-            previous: None,
+            motion: CameraMotion::new(geo.motion_smoothing),
             last_time_s: None,
         }
     }
@@ -118,32 +186,30 @@ impl InputBuilder {
                 });
         }
         let Some(g) = &self.geolocator else {
+            self.motion.pending = None;
             return (
                 tracker_input(index, time_s, size, detections, None, None),
                 None,
             );
         };
         let geometry = meta.and_then(|m| g.frame(m).ok());
-        let previous_geometry = match &self.previous {
-            Some((prev, m)) if prev + 1 == index => g.frame(m).ok(),
-            _ => None,
-        };
+        let image_motion = self.motion.image_motion(g, index, time_s, meta);
         let input = tracker_input(
             index,
             time_s,
             size,
             detections,
             geometry.as_ref(),
-            previous_geometry.as_ref(),
+            image_motion,
         );
         let camera_ned = geometry.map(|g| g.pose_in_reference().position_ned);
         (input, camera_ned)
     }
 
-    /// The tracker took frame `index` (with its pose, if any): the next frame's motion
+    /// The tracker took frame `index` (the last one built): the next frame's motion
     /// compensation starts from it.
-    pub fn taken(&mut self, index: u64, meta: Option<&FrameMetadata>) {
-        self.previous = meta.map(|m| (index, *m));
+    pub fn taken(&mut self, index: u64) {
+        self.motion.taken(index);
     }
 }
 
@@ -217,23 +283,94 @@ mod tests {
         let (m0, m1) = (meta(0.0), meta(2.0));
         let (f0, f1) = (g.frame(&m0).unwrap(), g.frame(&m1).unwrap());
         let dets = [detection(100.0), detection(600.0)];
-        let input = tracker_input(7, 1.5, (1280, 720), dets, Some(&f1), Some(&f0));
+        let h = f0.image_motion_to(&f1).ok();
+        assert!(h.is_some());
+        let input = tracker_input(7, 1.5, (1280, 720), dets, Some(&f1), h);
         assert_eq!(
             (input.frame_index, input.time_s, input.image_size_px),
             (7, 1.5, (1280, 720))
         );
         assert!(input.detections.iter().all(|d| d.world.is_some()));
-        assert!(input.image_motion.is_some());
+        assert_eq!(input.image_motion, h);
         // The same boxes geolocate where `WorldObservation::of_box` puts them.
         let direct = WorldObservation::of_box(&f1, &dets[1].bbox).unwrap();
         assert_eq!(input.detections[1].world, Some(direct));
 
-        let no_pose = tracker_input(8, 1.6, (1280, 720), dets, None, Some(&f1));
+        let no_pose = tracker_input(8, 1.6, (1280, 720), dets, None, None);
         assert!(no_pose.detections.iter().all(|d| d.world.is_none()));
         assert!(no_pose.image_motion.is_none());
-        let first = tracker_input(0, 0.0, (1280, 720), dets, Some(&f0), None);
-        assert!(first.image_motion.is_none());
-        assert!(first.detections.iter().all(|d| d.world.is_some()));
+    }
+
+    /// `meta(north_m)` with the camera tilted by `tilt_deg` about its x axis (image right):
+    /// a small attitude error, as the autopilot's noise.
+    fn tilted(north_m: f64, tilt_deg: f64) -> FrameMetadata {
+        let m = meta(north_m);
+        FrameMetadata {
+            camera_attitude: m.camera_attitude
+                * nalgebra::UnitQuaternion::from_euler_angles(tilt_deg.to_radians(), 0.0, 0.0),
+            ..m
+        }
+    }
+
+    #[test]
+    fn camera_motion_smooths_the_attitude_and_commits_only_taken_frames() {
+        let camera = CameraModel::from_hfov(1280, 720, 60.0).unwrap();
+        let g = Geolocator::new(meta(0.0).nadir_on_water(), camera, PoseNoise::default());
+        let raw = |a: &FrameMetadata, b: &FrameMetadata| {
+            g.frame(a)
+                .unwrap()
+                .image_motion_to(&g.frame(b).unwrap())
+                .unwrap()
+        };
+        // A still camera whose attitude reads +-0.1 deg alternately: the raw homography
+        // jumps by ~2 px each frame, the smoothed one much less.
+        let metas: Vec<_> = (0..40)
+            .map(|i| tilted(0.0, if i % 2 == 0 { 0.1 } else { -0.1 }))
+            .collect();
+        let shift = |h: &Matrix3<f64>| {
+            let p = h * Vector3::new(640.0, 360.0, 1.0);
+            ((p.x / p.z - 640.0).powi(2) + (p.y / p.z - 360.0).powi(2)).sqrt()
+        };
+        let mut smooth = CameraMotion::new(AttitudeSmoothing::default());
+        let mut off = CameraMotion::new(AttitudeSmoothing {
+            enabled: false,
+            ..AttitudeSmoothing::default()
+        });
+        let (mut s_last, mut o_last) = (0.0, 0.0);
+        for (i, m) in metas.iter().enumerate() {
+            let t = i as f64 / 30.0;
+            let hs = smooth.image_motion(&g, i as u64, t, Some(m));
+            let ho = off.image_motion(&g, i as u64, t, Some(m));
+            assert_eq!(hs.is_some(), i > 0);
+            if let (Some(hs), Some(ho)) = (hs, ho) {
+                assert_eq!(ho, raw(&metas[i - 1], m));
+                (s_last, o_last) = (shift(&hs), shift(&ho));
+            }
+            smooth.taken(i as u64);
+            off.taken(i as u64);
+        }
+        assert!(o_last > 1.5, "raw shift {o_last} px");
+        assert!(
+            s_last < 0.5 * o_last,
+            "smoothed {s_last} px, raw {o_last} px"
+        );
+
+        // A frame built but not taken leaves no trace; one without a pose breaks the chain.
+        let mut a = CameraMotion::new(AttitudeSmoothing::default());
+        let mut b = a.clone();
+        a.image_motion(&g, 0, 0.0, Some(&metas[0]));
+        a.taken(0);
+        b.image_motion(&g, 0, 0.0, Some(&metas[0]));
+        b.taken(0);
+        b.image_motion(&g, 1, 0.033, Some(&tilted(3.0, 5.0)));
+        assert_eq!(
+            a.image_motion(&g, 1, 0.033, Some(&metas[1])),
+            b.image_motion(&g, 1, 0.033, Some(&metas[1]))
+        );
+        a.taken(1);
+        assert!(a.image_motion(&g, 2, 0.066, None).is_none());
+        a.taken(2);
+        assert!(a.image_motion(&g, 3, 0.1, Some(&metas[3])).is_none());
     }
 
     #[test]
@@ -242,24 +379,25 @@ mod tests {
             hfov_deg: 60.0,
             noise: PoseNoise::default(),
             max_range_m: 1000.0,
+            motion_smoothing: AttitudeSmoothing::default(),
         };
         let mut b = InputBuilder::new(geo);
         let dets = [detection(100.0)];
         let (no_pose, cam) = b.build(0, 10.0, (1280, 720), dets, None);
         assert!(no_pose.detections[0].world.is_none() && cam.is_none());
         assert!(b.geolocator().is_none());
-        b.taken(0, None);
+        b.taken(0);
         let (first, cam) = b.build(1, 10.1, (1280, 720), dets, Some(&meta(5.0)));
         let reference = b.geolocator().map(|g| g.reference().origin());
         assert_eq!(reference, Some(meta(5.0).nadir_on_water()));
         assert!(first.detections[0].world.is_some() && first.image_motion.is_none());
         assert!(cam.is_some_and(|c| c.x.abs() < 1e-6));
-        b.taken(1, Some(&meta(5.0)));
+        b.taken(1);
         // Consecutive: motion compensated; the clock going back continues after the last time.
         let (second, _) = b.build(2, 3.0, (1280, 720), dets, Some(&meta(6.0)));
         assert!(second.image_motion.is_some());
         assert!((second.time_s - 10.101).abs() < 1e-9);
-        b.taken(2, Some(&meta(6.0)));
+        b.taken(2);
         // A gap in the indices: no motion compensation across it.
         let (after_gap, _) = b.build(4, 10.3, (1280, 720), dets, Some(&meta(7.0)));
         assert!(after_gap.image_motion.is_none());

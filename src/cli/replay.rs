@@ -89,7 +89,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => config.tracker.clone(),
     };
     params.validate().context("tracker parameters")?;
-    let geo = geo_settings(&config)?;
+    // The motion compensation's attitude smoothing is part of the tracker parameters: a
+    // replay with other parameters smooths as they say.
+    let geo = GeoSettings {
+        motion_smoothing: params.baseline.cmc_smoothing,
+        ..geo_settings(&config)?
+    };
     if flight.frames.is_empty() {
         bail!(
             "{}: the flight has no frame records (nothing was tracked)",
@@ -229,6 +234,7 @@ fn geo_settings(config: &Config) -> anyhow::Result<GeoSettings> {
             hfov_deg: c.hfov_deg,
             noise: g.noise,
             max_range_m: g.max_range_m,
+            motion_smoothing: config.tracker.baseline.cmc_smoothing,
         }),
         _ => bail!(
             "the flight's config.toml: {}",
@@ -264,7 +270,7 @@ fn rebuild_inputs(
             detections,
             meta.as_ref(),
         );
-        builder.taken(f.frame, meta.as_ref());
+        builder.taken(f.frame);
         inputs.push(input);
     }
     Ok((inputs, builder))

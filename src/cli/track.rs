@@ -10,8 +10,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mgmot::formats::input::{self, InputKind};
 use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
-use mgmot::frame::tracker_input;
-use mgmot::geo::{CameraModel, FrameGeometry, Geolocator, PoseNoise};
+use mgmot::frame::{tracker_input, CameraMotion};
+use mgmot::geo::{CameraModel, Geolocator, PoseNoise};
 use mgmot::track::{BBox, Detection, MergeEvent, TrackerParams};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -327,8 +327,10 @@ fn track_video(
     let mut inputs = Vec::with_capacity(seq.frames.len());
     let mut geolocated = 0usize;
     let mut n_dets = 0usize;
-    let mut previous: Option<FrameGeometry<'_>> = None;
-    for (f, meta) in seq.frames.iter().zip(&metas) {
+    // Consecutive entries of the video (its frames as annotated) are consecutive for the
+    // motion compensation, whatever their frame numbers.
+    let mut motion = CameraMotion::new(params.baseline.cmc_smoothing);
+    for (position, (f, meta)) in (0u64..).zip(seq.frames.iter().zip(&metas)) {
         let image = &ds.images[f.image_index];
         let geometry = match (&geolocator, meta) {
             (Some(g), Some(m)) => g.frame(m).ok(),
@@ -345,13 +347,17 @@ fn track_video(
                     class_id: *class_id,
                     world: None,
                 });
+        let image_motion = geolocator
+            .as_ref()
+            .and_then(|g| motion.image_motion(g, position, f.time_s, meta.as_ref()));
+        motion.taken(position);
         let input = tracker_input(
             f.video_frame,
             f.time_s,
             (image.width, image.height),
             detections,
             geometry.as_ref(),
-            previous.as_ref(),
+            image_motion,
         );
         n_dets += input.detections.len();
         geolocated += input
@@ -360,7 +366,6 @@ fn track_video(
             .filter(|d| d.world.is_some())
             .count();
         inputs.push(input);
-        previous = geometry;
     }
 
     let tracked = track_frames(

@@ -159,7 +159,7 @@ impl FrameStep {
         self.stats.frames_processed += 1;
         self.service.frame_processed(output.tracks.len());
         // The next frame's motion compensation starts from the frame the tracker just took.
-        self.inputs.taken(index, pose.meta.as_ref().ok());
+        self.inputs.taken(index);
         self.publish(&output, size, &pose, at, camera_ned);
         if let Some(r) = &mut self.recording {
             let geolocator = self.inputs.geolocator();
@@ -308,6 +308,7 @@ pub(crate) fn geo_settings(settings: &Settings) -> GeoSettings {
         hfov_deg: settings.camera.hfov_deg,
         noise: settings.geolocation.noise,
         max_range_m: settings.geolocation.max_range_m,
+        motion_smoothing: settings.tracker.baseline.cmc_smoothing,
     }
 }
 

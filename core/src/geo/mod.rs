@@ -16,6 +16,7 @@
 pub mod attitude;
 mod camera;
 mod geolocate;
+mod smoothing;
 mod uncertainty;
 mod wgs84;
 
@@ -23,6 +24,7 @@ pub use camera::{
     sea_plane_homography, CameraModel, CameraPose, Distortion, Intrinsics, Pixel, SeaPlane,
 };
 pub use geolocate::{FrameGeometry, FrameMetadata, Geolocation, Geolocator};
+pub use smoothing::{AttitudeSmoother, AttitudeSmoothing};
 pub use uncertainty::{geolocation_covariance, PoseNoise};
 pub use wgs84::{Geodetic, LocalTangentFrame};
 

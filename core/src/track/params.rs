@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::drift::DriftParams;
 use super::TrackError;
+use crate::geo::AttitudeSmoothing;
 
 /// Every parameter of the tracker (baseline, MG-MOT ReID, offline post-processing).
 ///
@@ -107,6 +108,13 @@ pub struct BaselineParams {
     /// attitude noise (white, 0.1-0.15 deg a sample) makes it cost `lawnmower_search`
     /// (0.617 -> 0.771 without) and `sector_search` (0.642 -> 0.707).
     pub camera_motion_compensation: bool,
+    /// Smoothing of the camera attitude the motion compensation's homography is computed
+    /// from (not the geolocation's): an alpha-beta filter that keeps the camera's smooth
+    /// motion and drops the attitude's frame-to-frame noise, snapping to the measurement on
+    /// a real jump (see [`AttitudeSmoothing`]). Applied by the caller that builds the
+    /// tracker's inputs ([`crate::frame::InputBuilder`], `mgmot track`). Measured on the
+    /// benchmark: README, "Metadata camera-motion compensation".
+    pub cmc_smoothing: AttitudeSmoothing,
 }
 
 impl Default for BaselineParams {
@@ -126,6 +134,7 @@ impl Default for BaselineParams {
             world_gate_chi2: Some(2.0),
             coast_frames: 2,
             camera_motion_compensation: true,
+            cmc_smoothing: AttitudeSmoothing::default(),
         }
     }
 }
@@ -581,6 +590,13 @@ impl TrackerParams {
             limits::WORLD_ACCEL_STD_M_S2,
             "baseline.world_accel_std_m_s2",
         )?;
+        if let Some((name, requirement)) = b.cmc_smoothing.invalid() {
+            check(
+                false,
+                &format!("baseline.cmc_smoothing.{name}"),
+                requirement,
+            )?;
+        }
         let r = &self.reid;
         check(
             (1..=limits::WINDOW_FRAMES).contains(&r.window_frames),
@@ -743,7 +759,10 @@ mod tests {
 
     #[test]
     fn validate_refuses_non_finite_and_overflowing_values() {
-        let cases: [Breaks; 17] = [
+        let cases: [Breaks; 18] = [
+            ("baseline.cmc_smoothing.alpha", |p| {
+                p.baseline.cmc_smoothing.alpha = f64::NAN
+            }),
             ("baseline.coast_frames", |p| {
                 p.baseline.coast_frames = u64::MAX
             }),
