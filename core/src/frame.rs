@@ -83,7 +83,7 @@ impl CameraMotion {
         meta: Option<&FrameMetadata>,
     ) -> Option<Matrix3<f64>> {
         let Some(meta) = meta else {
-            self.pending = None;
+            self.without_pose();
             return None;
         };
         let (smoother, attitude) = self.smoother.update(time_s, meta.camera_attitude);
@@ -99,6 +99,12 @@ impl CameraMotion {
         let from = geolocator.frame(prev).ok()?;
         let to = geolocator.frame(&smoothed).ok()?;
         from.image_motion_to(&to).ok()
+    }
+
+    /// The frame being built has no usable pose: once taken, the next frame has no motion
+    /// compensation.
+    pub fn without_pose(&mut self) {
+        self.pending = None;
     }
 
     /// The tracker took frame `index`: the next frame's motion starts from it (from nothing
@@ -186,7 +192,7 @@ impl InputBuilder {
                 });
         }
         let Some(g) = &self.geolocator else {
-            self.motion.pending = None;
+            self.motion.without_pose();
             return (
                 tracker_input(index, time_s, size, detections, None, None),
                 None,

@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mgmot::config::Config;
 use mgmot::formats::input::{self, InputKind};
 use mgmot::frame::{GeoSettings, InputBuilder};
+use mgmot::geo::AttitudeSmoothing;
 use mgmot::record::format::FrameRecord;
 use mgmot::record::Flight;
 use mgmot::track::{Detection, FrameInput, TrackerParams};
@@ -91,10 +92,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     params.validate().context("tracker parameters")?;
     // The motion compensation's attitude smoothing is part of the tracker parameters: a
     // replay with other parameters smooths as they say.
-    let geo = GeoSettings {
-        motion_smoothing: params.baseline.cmc_smoothing,
-        ..geo_settings(&config)?
-    };
+    let geo = geo_settings(&config, params.baseline.cmc_smoothing)?;
     if flight.frames.is_empty() {
         bail!(
             "{}: the flight has no frame records (nothing was tracked)",
@@ -224,8 +222,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The flight's camera and geolocation settings (as configured in the air).
-fn geo_settings(config: &Config) -> anyhow::Result<GeoSettings> {
+/// The flight's camera and geolocation settings (as configured in the air), with the motion
+/// compensation's attitude smoothing of the tracker parameters the replay runs with.
+fn geo_settings(
+    config: &Config,
+    motion_smoothing: AttitudeSmoothing,
+) -> anyhow::Result<GeoSettings> {
     let mut problems = mgmot::config::Problems::default();
     let camera = config.camera.validate(&mut problems);
     let geolocation = config.geolocation.validate(&mut problems);
@@ -234,7 +236,7 @@ fn geo_settings(config: &Config) -> anyhow::Result<GeoSettings> {
             hfov_deg: c.hfov_deg,
             noise: g.noise,
             max_range_m: g.max_range_m,
-            motion_smoothing: config.tracker.baseline.cmc_smoothing,
+            motion_smoothing,
         }),
         _ => bail!(
             "the flight's config.toml: {}",
