@@ -22,6 +22,16 @@ Two measurements behind the README's "Decide with measurements" items (issue 14)
     changed; rows matching nothing keep a fresh id. Writes RELABELLED (MOTChallenge); score
     it with ``mgmot eval --gt GT_DIR/gt/gt.txt --pred RELABELLED``.
 
+``decisions GT_DIR OUT_DIR [--results FILE]``
+    Which online ReID decisions went wrong, and after how long a gap? Each merge in
+    ``OUT_DIR/summary.json`` links a new track to an ended one: it is right when the old id's
+    rows just before the new track appeared (the last run of rows, frames at most 3 apart,
+    before it) and its rows after the merge take the same true id (majority, IoU >= 0.5, one
+    optimal assignment per frame). An id never merged into and never merged is a "new
+    object" decision: right when its true id had no earlier rows under another id, otherwise
+    a missed link. Prints the counts and, for the wrong and missed ones, the frame, ids and gap
+    in seconds. ``--results`` names the results file when it was moved from ``OUT_DIR``.
+
 Usage (the folder is what ``mgmot-sim detections ... --gt-dir`` writes):
 
     mgmot-sim detections -s sector_search --out /tmp/x/det.txt --gt-dir /tmp/x/gt
@@ -30,6 +40,7 @@ Usage (the folder is what ``mgmot-sim detections ... --gt-dir`` writes):
         --mode online --json --out /tmp/x/online
     python3 scripts/reid_diagnostics.py perfect-reid /tmp/x/gt /tmp/x/online /tmp/x/perfect.txt
     mgmot eval --gt /tmp/x/gt/gt/gt.txt --pred /tmp/x/perfect.txt
+    python3 scripts/reid_diagnostics.py decisions /tmp/x/gt /tmp/x/online
 
 Needs numpy and scipy (``scripts/test.sh`` installs them into ``.venv``).
 """
@@ -39,6 +50,7 @@ from __future__ import annotations
 import argparse
 import collections
 import csv
+import datetime
 import json
 import math
 import os
@@ -195,6 +207,106 @@ def cmd_perfect_reid(args: argparse.Namespace) -> None:
     print(f"{n_rows} rows, {len(new_id)} raw segments -> {args.relabelled}")
 
 
+def true_ids_by_frame(gt, pred) -> dict[tuple[int, int], int]:
+    """(frame, predicted id) -> the true id its box matches (IoU >= 0.5, optimal per frame)."""
+    out: dict[tuple[int, int], int] = {}
+    for fr, ps in pred.items():
+        gs = gt.get(fr, [])
+        if not gs:
+            continue
+        cost = np.array([[iou(g[1:], p[1:]) for p in ps] for g in gs])
+        for a, b in zip(*linear_sum_assignment(-cost)):
+            if cost[a, b] >= 0.5:
+                out[(fr, ps[b][0])] = gs[a][0]
+    return out
+
+
+def cmd_decisions(args: argparse.Namespace) -> None:
+    with open(os.path.join(args.out_dir, "summary.json"), encoding="utf-8") as f:
+        videos = json.load(f)["videos"]
+    if len(videos) != 1:
+        raise SystemExit("expected one video in summary.json")
+    results = args.results or os.path.join(
+        args.out_dir, os.path.basename(videos[0]["mot_results"]))
+    gt = read_mot(os.path.join(args.gt_dir, "gt", "gt.txt"))
+    pred = read_mot(results)
+    fps = 30.0
+    ann = os.path.join(args.gt_dir, "annotations.json")
+    if os.path.exists(ann):
+        with open(ann, encoding="utf-8") as f:
+            images = json.load(f).get("images", [])
+        stamps = sorted(datetime.datetime.fromisoformat(i["date_time"]).timestamp()
+                        for i in images if "date_time" in i)
+        if len(stamps) > 1 and stamps[-1] > stamps[0]:
+            fps = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+    truth = true_ids_by_frame(gt, pred)
+    rows_of: dict[int, list[int]] = collections.defaultdict(list)
+    for fr, ps in pred.items():
+        for p in ps:
+            rows_of[p[0]].append(fr)
+    for frames in rows_of.values():
+        frames.sort()
+
+    def majority(pid: int, frames) -> int | None:
+        c = collections.Counter(truth[(fr, pid)] for fr in frames if (fr, pid) in truth)
+        return c.most_common(1)[0][0] if c else None
+
+    merges = sorted(videos[0]["merges"], key=lambda m: m["frame_index"])
+    splits: dict[int, list[int]] = collections.defaultdict(list)
+    for m in merges:
+        # frame_index counts from 0, the results' frames from 1.
+        splits[m["merged_into_id"]].append(m["frame_index"] + 1)
+    wrong, right = [], 0
+    for m in merges:
+        pid, at = m["merged_into_id"], m["frame_index"] + 1
+        later = [s for s in splits[pid] if s > at]
+        end = later[0] if later else math.inf
+        after = [fr for fr in rows_of[pid] if at < fr <= end]
+        # The new track's rows may carry the old id while provisional: the exit is the run
+        # of rows before the last one that reaches the merge.
+        upto = [fr for fr in rows_of[pid] if fr <= at]
+        i = len(upto) - 1
+        while i > 0 and upto[i] - upto[i - 1] <= 3:
+            i -= 1
+        runs = segments(upto[:i], 3)
+        before = runs[-1] if runs else []
+        tb, ta = majority(pid, before), majority(pid, after)
+        if ta is None or tb is None:
+            continue
+        gap_s = (upto[i] - before[-1]) / fps if before and upto else float("nan")
+        if tb == ta:
+            right += 1
+        else:
+            wrong.append((at, pid, m["new_id"], tb, ta, gap_s))
+    merged = {m["new_id"] for m in merges}
+    first_seen: dict[int, list[tuple[int, int]]] = collections.defaultdict(list)
+    for (fr, pid), t in truth.items():
+        first_seen[t].append((fr, pid))
+    new_right, missed = 0, []
+    for pid, frames in rows_of.items():
+        if pid in merged:
+            continue
+        first = splits[pid]
+        own = [fr for fr in frames if not first or fr <= first[0]]
+        t = majority(pid, own)
+        if t is None:
+            continue
+        start = frames[0]
+        earlier = [fr for fr, other in first_seen[t] if fr < start and other != pid]
+        if earlier:
+            missed.append((start, pid, t, (start - max(earlier)) / fps))
+        else:
+            new_right += 1
+    print(f"links: {right} right, {len(wrong)} wrong; new objects: {new_right} right, "
+          f"{len(missed)} missed links ({fps:.1f} fps)")
+    for at, pid, new, tb, ta, gap in wrong:
+        print(f"  wrong link at frame {at}: track {new} (true {ta}) into {pid} "
+              f"(true {tb}), gap {gap:.0f} s")
+    for start, pid, t, gap in sorted(missed):
+        print(f"  missed link at frame {start}: track {pid} (true {t}) seen under another id "
+              f"{gap:.0f} s before")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -208,6 +320,11 @@ def main() -> int:
     p.add_argument("out_dir")
     p.add_argument("relabelled")
     p.set_defaults(func=cmd_perfect_reid)
+    d = sub.add_parser("decisions", help="classify an online run's ReID decisions")
+    d.add_argument("gt_dir")
+    d.add_argument("out_dir")
+    d.add_argument("--results", help="the results file, when moved out of OUT_DIR")
+    d.set_defaults(func=cmd_decisions)
     args = ap.parse_args()
     try:
         args.func(args)
