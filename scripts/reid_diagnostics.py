@@ -145,6 +145,20 @@ def cmd_size(args: argparse.Namespace) -> None:
               f"within one object {within:.3f}; intraclass correlation {c:.2f}")
 
 
+def true_ids_by_frame(gt, pred) -> dict[tuple[int, int], int]:
+    """(frame, predicted id) -> the true id its box matches (IoU >= 0.5, optimal per frame)."""
+    out: dict[tuple[int, int], int] = {}
+    for fr, ps in pred.items():
+        gs = gt.get(fr, [])
+        if not gs:
+            continue
+        cost = np.array([[iou(g[1:], p[1:]) for p in ps] for g in gs])
+        for a, b in zip(*linear_sum_assignment(-cost)):
+            if cost[a, b] >= 0.5:
+                out[(fr, ps[b][0])] = gs[a][0]
+    return out
+
+
 def cmd_perfect_reid(args: argparse.Namespace) -> None:
     with open(os.path.join(args.out_dir, "summary.json"), encoding="utf-8") as f:
         videos = json.load(f)["videos"]
@@ -165,14 +179,8 @@ def cmd_perfect_reid(args: argparse.Namespace) -> None:
 
     votes: dict[tuple[int, int], collections.Counter] = collections.defaultdict(
         collections.Counter)
-    for fr, ps in pred.items():
-        gs = gt.get(fr, [])
-        if not gs:
-            continue
-        cost = np.array([[iou(g[1:], p[1:]) for p in ps] for g in gs])
-        for a, b in zip(*linear_sum_assignment(-cost)):
-            if cost[a, b] >= 0.5:
-                votes[segment(ps[b][0], fr)][gs[a][0]] += 1
+    for (fr, pid), true_id in true_ids_by_frame(gt, pred).items():
+        votes[segment(pid, fr)][true_id] += 1
     fresh = max((i for ps in gt.values() for i, *_ in ps), default=0) + 1_000_000
     new_id: dict[tuple[int, int], int] = {}
     used: set[tuple[int, int]] = set()
@@ -205,20 +213,6 @@ def cmd_perfect_reid(args: argparse.Namespace) -> None:
             dst.write(",".join(p) + "\n")
             n_rows += 1
     print(f"{n_rows} rows, {len(new_id)} raw segments -> {args.relabelled}")
-
-
-def true_ids_by_frame(gt, pred) -> dict[tuple[int, int], int]:
-    """(frame, predicted id) -> the true id its box matches (IoU >= 0.5, optimal per frame)."""
-    out: dict[tuple[int, int], int] = {}
-    for fr, ps in pred.items():
-        gs = gt.get(fr, [])
-        if not gs:
-            continue
-        cost = np.array([[iou(g[1:], p[1:]) for p in ps] for g in gs])
-        for a, b in zip(*linear_sum_assignment(-cost)):
-            if cost[a, b] >= 0.5:
-                out[(fr, ps[b][0])] = gs[a][0]
-    return out
 
 
 def cmd_decisions(args: argparse.Namespace) -> None:
