@@ -259,10 +259,11 @@ mod tests {
 
     #[test]
     fn a_jump_beyond_the_snap_threshold_is_taken_at_once() {
-        let mut f = AttitudeSmoother::new(AttitudeSmoothing {
+        let params = AttitudeSmoothing {
             snap_rms_factor: 0.0,
             ..AttitudeSmoothing::default()
-        });
+        };
+        let mut f = AttitudeSmoother::new(params);
         let level = UnitQuaternion::from_euler_angles(1.0, 0.0, 0.0);
         for i in 0..30 {
             f = f.update(i as f64 / 30.0, level).0;
@@ -270,11 +271,15 @@ mod tests {
         let slewed = level * UnitQuaternion::from_euler_angles(0.0, 0.0, 5f64.to_radians());
         let (_, out) = f.update(1.0, slewed);
         assert_eq!(out, slewed);
-        // A small step is smoothed: the output lies between the old and the new attitude.
+        // A small step is smoothed: the output moves by the gain alpha times the step.
         let nudged = level * UnitQuaternion::from_euler_angles(0.0, 0.0, 0.5f64.to_radians());
         let (_, out) = f.update(1.0, nudged);
         let moved = deg(&level, &out);
-        assert!(moved > 0.05 && moved < 0.4, "moved {moved} deg of 0.5");
+        let expected = params.alpha * 0.5;
+        assert!(
+            (moved - expected).abs() < 0.01,
+            "moved {moved} deg of 0.5, expected {expected}"
+        );
     }
 
     #[test]
