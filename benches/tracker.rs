@@ -11,6 +11,12 @@
 //! the same frame), every exit of the new track's class and within minutes of it, so that
 //! every pair is evaluated under the Mahalanobis gate. Target: <= 1 ms per decision.
 //!
+//! Fourth case: the colour signature of one detection's box (`signature_*`), which
+//! `mgmot run` computes for every detection (cost per frame: detections x this).
+//!
+//! Detections and track ends carry colour signatures, so the appearance gate's distances are
+//! in every figure.
+//!
 //! Each case is measured twice: wall-clock time (criterion's default) and the CPU time of the
 //! benchmark thread (`*_cpu`), which is what "on one core" means when the machine is shared
 //! and the wall clock includes time spent waiting for a core.
@@ -22,8 +28,8 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use mgmot::track::reid::{associate_exits_to_entries, TrackEnd};
 use mgmot::track::{
-    BBox, Detection, FrameInput, ReidParams, SeaDrift, TrackState, Tracker, TrackerParams,
-    WorldObservation,
+    appearance, Appearance, BBox, Detection, FrameInput, ReidParams, RgbImage, SeaDrift,
+    TrackState, Tracker, TrackerParams, WorldObservation,
 };
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
@@ -48,6 +54,17 @@ struct Obj {
     vel: Vector2<f64>,
     frames: std::ops::Range<u64>,
     class_id: u32,
+    /// Hue bin of its colour signature.
+    colour: usize,
+}
+
+/// A colour signature mostly in hue bin `bin`, the rest dark (a jacket and a head), as
+/// `mgmot run` computes for every detection, so the appearance gate does its work.
+fn signature(bin: usize) -> Option<Appearance> {
+    let mut bins = [0.0; appearance::BINS];
+    bins[bin % appearance::HUE_BINS] = 0.8;
+    bins[appearance::HUE_BINS] = 0.2;
+    Some(Appearance { bins })
 }
 
 /// Frame the 5 new objects appear in; their ReID decision comes `reid.window_frames` later.
@@ -59,11 +76,16 @@ fn scene(n_frames: u64) -> Vec<FrameInput> {
     let mut rng = Lcg(42);
     let mut objs = Vec::new();
     let mut add = |rng: &mut Lcg, frames: std::ops::Range<u64>| {
+        // Eight jacket colours for 40 objects (not drawn from `rng`, so the scene's
+        // positions stay those of the benchmark without signatures): a new object shares its
+        // colour with some ended ones, so the gate lets some pairs through and stops others.
+        let colour = 2 * ((objs.len() * 5) % 8);
         objs.push(Obj {
             pos: Vector2::new(rng.next() * 150.0 - 75.0, rng.next() * 300.0 - 150.0),
             vel: Vector2::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0),
             frames,
             class_id: 1 + (rng.next() * 2.0) as u32,
+            colour,
         });
     };
     for _ in 0..25 {
@@ -94,6 +116,7 @@ fn scene(n_frames: u64) -> Vec<FrameInput> {
                         pos_ne_m: p + noise,
                         cov_ne_m2: Matrix2::identity() * 0.25,
                     }),
+                    appearance: signature(o.colour),
                 });
             }
             for _ in 0..10 {
@@ -107,6 +130,7 @@ fn scene(n_frames: u64) -> Vec<FrameInput> {
                     score: 0.15 + 0.3 * rng.next() as f32,
                     class_id: 1,
                     world: None,
+                    appearance: None,
                 });
             }
             FrameInput {
@@ -284,6 +308,7 @@ fn long_gap_case(n: usize) -> (Vec<TrackEnd>, Vec<TrackEnd>) {
         pos_cov_m2: Matrix2::identity() * (0.5 + rng.next()),
         vel_cov_m2_s2: Matrix2::identity() * 0.05,
         left_view: rng.next() < 0.7,
+        appearance: signature(2 * (rng.next() * 8.0) as usize),
     };
     let exits = (0..200)
         .map(|_| {
@@ -320,7 +345,43 @@ fn bench_long_gap(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_step, bench_long_gap);
+/// The colour signature of one detection (`Appearance::from_box`, what `mgmot run` adds to
+/// every detection of a frame): a 20 x 20 px swimmer and a 200 x 120 px boat (subsampled on
+/// a 32 x 32 grid), each on a sea background with a jacket-coloured patch.
+fn bench_signature(c: &mut Criterion) {
+    let (w, h) = (320usize, 200usize);
+    let mut rgb = vec![0u8; w * h * 3];
+    let mut rng = Lcg(3);
+    for px in rgb.chunks_exact_mut(3) {
+        let n = (rng.next() * 20.0) as u8;
+        px.copy_from_slice(&[20 + n, 60 + n, 80 + n]);
+    }
+    for y in 30..150 {
+        for x in 50..250 {
+            if (x + y) % 3 == 0 || (14..26).contains(&(x % 40)) {
+                let i = (y * w + x) * 3;
+                rgb[i..i + 3].copy_from_slice(&[255, 110, 0]);
+            }
+        }
+    }
+    let image = RgbImage {
+        rgb: &rgb,
+        width: w,
+        height: h,
+    };
+    for (name, b) in [
+        ("signature_swimmer_20px", BBox::new(60.0, 40.0, 20.0, 20.0)),
+        (
+            "signature_boat_200x120px",
+            BBox::new(50.0, 30.0, 200.0, 120.0),
+        ),
+    ] {
+        assert!(Appearance::from_box(&image, &b).is_some());
+        c.bench_function(name, |bch| bch.iter(|| Appearance::from_box(&image, &b)));
+    }
+}
+
+criterion_group!(benches, bench_step, bench_long_gap, bench_signature);
 criterion_group! {
     name = benches_cpu;
     config = Criterion::default().with_measurement(ThreadCpuTime);

@@ -71,7 +71,23 @@ fn detect_writes_coco_json_and_drawn_images() {
         let name = r["category_name"].as_str().unwrap();
         assert_eq!(name, ["swimmer", "boat"][cat as usize - 1]);
         assert!([1, 2].contains(&r["image_id"].as_u64().unwrap()));
+        // The colour signature, where the box shows enough of the object: 18 hex bytes that
+        // parse back into a signature whose bins sum to 1.
+        if let Some(sig) = r.get("appearance") {
+            let sig = sig.as_str().unwrap();
+            let a = mgmot::track::Appearance::from_hex(sig).unwrap();
+            assert!((a.bins.iter().sum::<f32>() - 1.0).abs() < 1e-4, "{sig}");
+        }
     }
+    let signed = results
+        .iter()
+        .filter(|r| r.get("appearance").is_some())
+        .count();
+    assert!(
+        signed * 2 > results.len(),
+        "{signed} of {} boxes have a signature",
+        results.len()
+    );
     for stem in [
         "sim_boats_crossing_s100002_000631",
         "sim_leave_and_return_s100002_000001",

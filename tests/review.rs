@@ -73,6 +73,7 @@ fn track(
             score: 0.8,
             class_id,
             world: None,
+            appearance: None,
         },
     )
 }
@@ -122,6 +123,7 @@ fn frame_record(n: u64) -> FrameRecord {
         score: 0.3,
         class_id: 1,
         world: None,
+        appearance: None,
     });
     FrameRecord {
         frame: n,

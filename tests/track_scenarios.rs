@@ -83,6 +83,7 @@ impl Scene {
                         pos_ne_m: p,
                         cov_ne_m2: Matrix2::identity() * 0.25,
                     }),
+                    appearance: None,
                 });
                 gt.push(k);
             }
@@ -581,6 +582,7 @@ fn wild_detection() -> impl Strategy<Value = Detection> {
                 pos_ne_m: Vector2::new(n, e),
                 cov_ne_m2: Matrix2::identity() * v,
             }),
+            appearance: None,
         })
 }
 

@@ -94,6 +94,7 @@ fn clips(metadata: bool) -> BTreeMap<String, Vec<FrameInput>> {
             score: d.score as f32,
             class_id: d.category_id,
             world: None,
+            appearance: None,
         });
     }
     let mut clips = BTreeMap::new();

@@ -279,6 +279,7 @@ mod tests {
             score: 0.9,
             class_id: 1,
             world: None,
+            appearance: None,
         }
     }
 

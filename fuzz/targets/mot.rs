@@ -25,11 +25,12 @@ pub fn txt(data: &[u8]) {
     let text = String::from_utf8(out).expect("write produces UTF-8");
     let again = parse_str(&text, path)
         .unwrap_or_else(|e| panic!("written records do not parse back: {e}\n{text}"));
-    // `write` spells a missing visibility as -1.
+    // `write` spells a missing visibility as -1 and writes no signature column.
     let expected: Vec<MotRecord> = records
         .iter()
         .map(|r| MotRecord {
             visibility: Some(r.visibility.unwrap_or(-1.0)),
+            appearance: None,
             ..*r
         })
         .collect();

@@ -4,7 +4,9 @@
 //! `category_id = class index + 1`, which is SeaDronesSee's numbering for the
 //! shipped model's swimmer = 1, boat = 2) to stdout with `--json` and to
 //! `OUT/detections.json` with `--out`, where it also draws the boxes on a copy
-//! of each image.
+//! of each image. Each entry also carries `appearance`, the box's colour signature in hex
+//! (`mgmot::track::Appearance`), when the box shows enough of the object; `mgmot track`
+//! reads it for the appearance gate of its long-gap ReID.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -97,6 +99,9 @@ struct CocoResult {
     bbox: [f32; 4],
     score: f32,
     file_name: String,
+    /// The box's colour signature in hex (`reid.appearance_gate`), when it shows enough.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    appearance: Option<String>,
 }
 
 /// Runs `mgmot detect`.
@@ -172,6 +177,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 )?;
             }
         }
+        results.extend(dets.iter().map(|d| CocoResult {
+            image_id,
+            category_id: d.class_id + 1,
+            category_name: class_name(&names, d.class_id).to_string(),
+            bbox: [d.bbox.x_px, d.bbox.y_px, d.bbox.w_px, d.bbox.h_px],
+            score: d.score,
+            file_name: file_name.clone(),
+            appearance: d.appearance(&frame).map(|a| a.to_hex()),
+        }));
         if let Some(out) = &args.out {
             let drawn = draw(frame, &dets);
             let target = out.join(format!(
@@ -184,14 +198,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .save(&target)
                 .with_context(|| format!("cannot write {}", target.display()))?;
         }
-        results.extend(dets.iter().map(|d| CocoResult {
-            image_id,
-            category_id: d.class_id + 1,
-            category_name: class_name(&names, d.class_id).to_string(),
-            bbox: [d.bbox.x_px, d.bbox.y_px, d.bbox.w_px, d.bbox.h_px],
-            score: d.score,
-            file_name: file_name.clone(),
-        }));
     }
     let json = serde_json::to_string_pretty(&results)?;
     if args.json {

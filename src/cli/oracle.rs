@@ -57,6 +57,7 @@ fn read_detections(path: &std::path::Path) -> anyhow::Result<Vec<MotRecord>> {
                 conf: d.score,
                 class: i64::from(d.category_id),
                 visibility: None,
+                appearance: None,
             })
             .collect());
     }

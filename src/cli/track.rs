@@ -12,7 +12,7 @@ use mgmot::formats::seadronessee::{self, Dataset, Sequence};
 use mgmot::formats::{coco, mot};
 use mgmot::frame::{tracker_input, CameraMotion};
 use mgmot::geo::{CameraModel, Geolocator, PoseNoise};
-use mgmot::track::{BBox, Detection, MergeEvent, TrackerParams};
+use mgmot::track::{Appearance, BBox, Detection, MergeEvent, TrackerParams};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Write;
@@ -88,7 +88,7 @@ struct VideoSummary {
 }
 
 /// Detections of one image: (category, bbox, score).
-type Dets = Vec<(u32, [f64; 4], f64)>;
+type Dets = Vec<(u32, [f64; 4], f64, Option<Appearance>)>;
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -261,6 +261,7 @@ fn load_detections(
                 class_id,
                 [r.bbox.x, r.bbox.y, r.bbox.w, r.bbox.h],
                 r.conf,
+                r.appearance,
             ));
         }
     } else {
@@ -271,10 +272,12 @@ fn load_detections(
                 unknown += 1;
                 continue;
             }
-            by_image
-                .entry(d.image_id)
-                .or_default()
-                .push((d.category_id, d.bbox, d.score));
+            by_image.entry(d.image_id).or_default().push((
+                d.category_id,
+                d.bbox,
+                d.score,
+                d.signature(),
+            ));
         }
         if unknown > 0 {
             tracing::warn!(
@@ -336,17 +339,15 @@ fn track_video(
             (Some(g), Some(m)) => g.frame(m).ok(),
             _ => None,
         };
-        let detections =
-            dets_by_image
-                .get(&f.image_id)
-                .into_iter()
-                .flatten()
-                .map(|(class_id, b, score)| Detection {
-                    bbox: BBox::new(b[0], b[1], b[2], b[3]),
-                    score: *score as f32,
-                    class_id: *class_id,
-                    world: None,
-                });
+        let detections = dets_by_image.get(&f.image_id).into_iter().flatten().map(
+            |(class_id, b, score, appearance)| Detection {
+                bbox: BBox::new(b[0], b[1], b[2], b[3]),
+                score: *score as f32,
+                class_id: *class_id,
+                world: None,
+                appearance: *appearance,
+            },
+        );
         let image_motion = geolocator
             .as_ref()
             .and_then(|g| motion.image_motion(g, position, f.time_s, meta.as_ref()));

@@ -241,5 +241,6 @@ fn mot_result(frame: u64, id: u64, b: &BBox, score: f32, class_id: Option<u32>) 
         conf: f64::from(score),
         class: class_id.map_or(-1, i64::from),
         visibility: None,
+        appearance: None,
     }
 }

@@ -102,6 +102,29 @@ pub struct Detection {
     pub bbox: PixelBox,
 }
 
+impl Detection {
+    /// The box as the tracker takes it.
+    pub fn track_bbox(&self) -> crate::track::BBox {
+        crate::track::BBox {
+            x: f64::from(self.bbox.x_px),
+            y: f64::from(self.bbox.y_px),
+            w: f64::from(self.bbox.w_px),
+            h: f64::from(self.bbox.h_px),
+        }
+    }
+
+    /// The colour signature of the box's pixels in `frame` (the frame given to the
+    /// detector), for the tracker's long-gap ReID (`reid.appearance_gate`).
+    pub fn appearance(&self, frame: &image::RgbImage) -> Option<crate::track::Appearance> {
+        let pixels = crate::track::RgbImage {
+            rgb: frame.as_raw(),
+            width: frame.width() as usize,
+            height: frame.height() as usize,
+        };
+        crate::track::Appearance::from_box(&pixels, &self.track_bbox())
+    }
+}
+
 /// Everything that can go wrong while loading a model or detecting.
 ///
 /// Every variant about a model names its file, so a user with several models

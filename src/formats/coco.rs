@@ -15,6 +15,19 @@ pub struct CocoDetection {
     pub bbox: [f64; 4],
     /// Detector confidence in [0, 1].
     pub score: f64,
+    /// The box's colour signature in hex ([`crate::track::Appearance::to_hex`]), an extra
+    /// field `mgmot detect` writes; other tools leave it out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub appearance: Option<String>,
+}
+
+impl CocoDetection {
+    /// The colour signature, when the entry carries a valid one.
+    pub fn signature(&self) -> Option<crate::track::Appearance> {
+        self.appearance
+            .as_deref()
+            .and_then(crate::track::Appearance::from_hex)
+    }
 }
 
 /// Reads and validates a COCO results file (finite boxes with non-negative size, scores in

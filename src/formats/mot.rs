@@ -28,6 +28,7 @@ use std::path::{Path, PathBuf};
 
 use super::input::{self, InputKind};
 use crate::eval::{Annotation, BoxXywh};
+use crate::track::Appearance;
 
 /// Errors from reading MOTChallenge files and folders.
 #[derive(Debug, thiserror::Error)]
@@ -119,6 +120,10 @@ pub struct MotRecord {
     pub class: i64,
     /// Visibility ratio (column 9) if given.
     pub visibility: Option<f64>,
+    /// Detection files only: the box's colour signature, when column 11 holds one
+    /// ([`Appearance::to_hex`]: `mgmot-sim detections --appearance`); any other column 11
+    /// is ignored as before.
+    pub appearance: Option<Appearance>,
 }
 
 impl MotRecord {
@@ -264,11 +269,18 @@ const COLUMN_NAMES: [&str; 9] = [
     "visibility",
 ];
 
+/// Column (0-based) of a detection's colour signature.
+const SIGNATURE_COLUMN: usize = 10;
+
 fn parse_line(line: &str) -> Result<MotRecord, String> {
     let mut values = [0.0f64; 9];
     let mut count = 0;
+    let mut appearance = None;
     let mut push = |field: &str| -> Result<(), String> {
         let field = field.trim();
+        if count == SIGNATURE_COLUMN {
+            appearance = Appearance::from_hex(field);
+        }
         if count < values.len() {
             let name = COLUMN_NAMES[count];
             let v: f64 = field
@@ -323,6 +335,7 @@ fn parse_line(line: &str) -> Result<MotRecord, String> {
         // finite, so it cannot be NaN, and it saturates instead of wrapping.
         class: if count > 7 { values[7] as i64 } else { 1 },
         visibility: (count > 8).then_some(values[8]),
+        appearance,
     })
 }
 
@@ -525,6 +538,24 @@ mod tests {
             (3, 1.0, 1, None)
         );
         assert!(r[0].to_gt_annotation().considered);
+    }
+
+    #[test]
+    fn detection_lines_carry_a_signature_in_column_11() {
+        let hex = "0f6944000000000031120000000000000000";
+        let r = parse(&format!(
+            "1,-1,491.46,404.88,11.99,14.97,0.5785,1,-1,-1,{hex}\n\
+             2,-1,1,2,3,4,0.5,1,-1,-1\n\
+             3,-1,1,2,3,4,0.5,1,-1,-1,7\n\
+             4,-1,1,2,3,4,0.5,1,-1,-1,{}\n",
+            "0".repeat(36)
+        ))
+        .unwrap();
+        let a = r[0].appearance.expect("signature parsed");
+        assert_eq!(a.to_hex().len(), hex.len());
+        assert!(a.distance(&Appearance::from_hex(hex).unwrap()) < 1e-6);
+        // No column 11, a number there, or an empty signature: none, and no error.
+        assert!(r[1..].iter().all(|x| x.appearance.is_none()));
     }
 
     #[test]

@@ -87,15 +87,11 @@ impl Detector for OnnxDetector {
         Ok(found
             .into_iter()
             .map(|d| Detection {
-                bbox: BBox {
-                    x: f64::from(d.bbox.x_px),
-                    y: f64::from(d.bbox.y_px),
-                    w: f64::from(d.bbox.w_px),
-                    h: f64::from(d.bbox.h_px),
-                },
+                bbox: d.track_bbox(),
                 score: d.score,
                 class_id: u32::try_from(d.class_id).map_or(u32::MAX, |c| c.saturating_add(1)),
                 world: None,
+                appearance: d.appearance(&image),
             })
             .collect())
     }
@@ -131,6 +127,7 @@ impl ReplayDetector {
                 score: d.score as f32,
                 class_id: d.category_id,
                 world: None,
+                appearance: d.signature(),
             });
         }
         Ok(Self {

@@ -19,6 +19,7 @@
 //!   [`reid::extrapolate_bidirectional`] (BiME), [`reid::expanded_match_threshold`] (MTE,
 //!   Eq. 9), [`reid::short_term_cost`] (Eq. 6); [`nms_prefer_larger`] (Sec. 5.1).
 
+pub mod appearance;
 mod assign;
 mod bbox;
 pub mod drift;
@@ -31,6 +32,7 @@ pub mod reid;
 mod types;
 mod world;
 
+pub use appearance::{Appearance, RgbImage};
 pub use bbox::BBox;
 pub use drift::{DriftEstimate, DriftParams, SeaDrift};
 pub use kalman::BoxKalman;

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::appearance::{Appearance, AppearanceMean};
 use super::bbox::BBox;
 use super::online::{add_vote, majority_class, track_end, Tracker};
 use super::params::ReidParams;
@@ -63,6 +64,8 @@ struct Point {
     class_id: Option<u32>,
     /// Filtered world state.
     world: Option<WorldState>,
+    /// Colour signature of the matched detection.
+    appearance: Option<Appearance>,
     interpolated: bool,
 }
 
@@ -100,6 +103,7 @@ pub fn track_sequence(
                 score: t.score,
                 class_id: Some(det.map_or(t.class_id, |d| d.class_id)),
                 world: t.world,
+                appearance: det.and_then(|d| d.appearance),
                 interpolated: false,
             });
         }
@@ -140,17 +144,24 @@ pub fn track_sequence(
                     params.reid.exit_border_fraction,
                 )
             });
-            exits.push(track_end(
-                class_id,
-                frames[last_pos].time_s,
-                &last,
-                left_view,
-            ));
+            // Offline the whole tracklet's signature at both ends.
+            let mut signature = AppearanceMean::default();
+            for a in points.iter().filter_map(|p| p.appearance.as_ref()) {
+                signature.add(a);
+            }
+            let appearance = signature.mean(params.reid.appearance_min_count);
+            exits.push(TrackEnd {
+                appearance,
+                ..track_end(class_id, frames[last_pos].time_s, &last, left_view)
+            });
             exit_ids.push(id);
             // The entry as online takes it: the world state w observations in (or the last
             // one of a shorter tracklet), when the velocity has settled.
             let (entry_pos, entry) = worlds[window.min(worlds.len() - 1)];
-            entries.push(track_end(class_id, frames[entry_pos].time_s, &entry, false));
+            entries.push(TrackEnd {
+                appearance,
+                ..track_end(class_id, frames[entry_pos].time_s, &entry, false)
+            });
             let (first_pos, first) = worlds[0];
             firsts.push(ChainPoint {
                 time_s: frames[first_pos].time_s,
@@ -333,6 +344,7 @@ fn interpolate(points: &mut Vec<Point>, frames: &[FrameInput], max_gap_frames: u
                     }),
                     _ => None,
                 },
+                appearance: None,
                 interpolated: true,
             });
         }
@@ -365,6 +377,7 @@ mod tests {
             score: 0.8,
             class_id: Some(1),
             world: None,
+            appearance: None,
             interpolated: false,
         }
     }
@@ -406,6 +419,7 @@ mod tests {
             pos_cov_m2: nalgebra::Matrix2::identity(),
             vel_cov_m2_s2: nalgebra::Matrix2::identity(),
             left_view: true,
+            appearance: None,
         }
     }
 

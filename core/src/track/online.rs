@@ -3,6 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
+use super::appearance::AppearanceMean;
 use super::assign::{apply_gate, solve_gated};
 use super::bbox::BBox;
 use super::drift::SeaDrift;
@@ -56,6 +57,8 @@ struct Track {
     /// While undecided: the memory entry ReID would link this track to now, whose id it is
     /// reported under (`reid.provisional_old_id`).
     provisional_link: Option<ProvisionalLink>,
+    /// Mean colour signature of the matched detections that had one.
+    appearance: AppearanceMean,
 }
 
 /// The old track an undecided track is reported as while its decision is pending.
@@ -74,15 +77,18 @@ impl Track {
 
     /// The track's exit as seen by ReID: its world filter's state at the last observation,
     /// if it has had world observations.
-    fn exit(&self, border_fraction: f64) -> Option<TrackEnd> {
+    fn exit(&self, border_fraction: f64, appearance_min_count: u32) -> Option<TrackEnd> {
         let w = self.world.as_ref()?;
-        Some(track_end(
-            self.class_id(),
-            w.time_s(),
-            w.state(),
-            self.last_bbox
-                .touches_border(self.last_image_size_px, border_fraction),
-        ))
+        Some(TrackEnd {
+            appearance: self.appearance.mean(appearance_min_count),
+            ..track_end(
+                self.class_id(),
+                w.time_s(),
+                w.state(),
+                self.last_bbox
+                    .touches_border(self.last_image_size_px, border_fraction),
+            )
+        })
     }
 
     /// The track as reported: its Kalman box and the detection matched in this frame (none
@@ -109,9 +115,12 @@ impl Track {
     /// The track's entry as seen by ReID: its world filter's state now (when the ReID
     /// decision is taken, `w` frames after the track started, so the velocity has had
     /// those observations to settle).
-    fn entry(&self) -> Option<TrackEnd> {
+    fn entry(&self, appearance_min_count: u32) -> Option<TrackEnd> {
         let w = self.world.as_ref()?;
-        Some(track_end(self.class_id(), w.time_s(), w.state(), false))
+        Some(TrackEnd {
+            appearance: self.appearance.mean(appearance_min_count),
+            ..track_end(self.class_id(), w.time_s(), w.state(), false)
+        })
     }
 }
 
@@ -130,6 +139,7 @@ pub(crate) fn track_end(
         pos_cov_m2: state.pos_cov_m2(),
         vel_cov_m2_s2: state.cov.fixed_view::<2, 2>(2, 2).into_owned(),
         left_view,
+        appearance: None,
     }
 }
 
@@ -356,7 +366,7 @@ impl Tracker {
         if t.reid_decided || !self.params.reid.enabled || self.memory.is_empty() {
             return false;
         }
-        let Some(entry) = t.entry() else {
+        let Some(entry) = t.entry(self.params.reid.appearance_min_count) else {
             return false;
         };
         self.memory.iter().any(|m| {
@@ -507,8 +517,12 @@ impl Tracker {
                 reid_decided: false,
                 provisional_link: None,
                 matched_det: Some(j),
+                appearance: AppearanceMean::default(),
             };
             add_vote(&mut t.class_votes, dets[j].class_id);
+            if let Some(a) = &dets[j].appearance {
+                t.appearance.add(a);
+            }
             record_world(
                 &mut t,
                 dets[j].world.as_ref(),
@@ -641,6 +655,9 @@ impl Tracker {
         t.last_image_size_px = input.image_size_px;
         t.matched_det = Some(j);
         add_vote(&mut t.class_votes, det.class_id);
+        if let Some(a) = &det.appearance {
+            t.appearance.add(a);
+        }
         record_world(t, det.world.as_ref(), input.time_s, accel);
         if was_lost {
             let uid = t.uid;
@@ -657,7 +674,7 @@ impl Tracker {
         if !reid.enabled {
             return;
         }
-        if let Some(exit) = t.exit(reid.exit_border_fraction) {
+        if let Some(exit) = t.exit(reid.exit_border_fraction, reid.appearance_min_count) {
             self.memory.push(MemoryEntry {
                 uid: t.uid,
                 id: t.id,
@@ -733,6 +750,7 @@ impl Tracker {
     fn online_reid(&mut self, frame_index: u64, force: bool, merges: &mut Vec<MergeEvent>) {
         let w = u64::from(self.params.reid.window_frames);
         let last_call = w + u64::from(self.params.reid.defer_max_frames);
+        let min_count = self.params.reid.appearance_min_count;
         let mut cand = Vec::new();
         let mut cand_start = Vec::new();
         let mut due = Vec::new();
@@ -749,7 +767,7 @@ impl Tracker {
             }
             let age = frame_index.saturating_sub(t.start_frame);
             let is_due = force || age >= w;
-            match t.entry() {
+            match t.entry(min_count) {
                 Some(e) => {
                     cand.push(k);
                     cand_start.push(t.start_frame);
@@ -991,6 +1009,7 @@ mod tests {
                 reid_decided: false,
                 provisional_link: None,
                 matched_det: None,
+                appearance: AppearanceMean::default(),
             });
         }
         tr
@@ -1130,7 +1149,7 @@ mod tests {
 
         // control: with its raw entry (the filter's velocity and covariance) the same
         // assignment links it to the nearer exit
-        let entry = tr.tracks[0].entry().unwrap();
+        let entry = tr.tracks[0].entry(1).unwrap();
         let exits: Vec<TrackEnd> = tr.memory.iter().map(|m| m.exit).collect();
         let links = associate_exits_to_entries_where(
             &exits,
@@ -1155,6 +1174,7 @@ mod tests {
                     score: 0.9,
                     class_id: 1,
                     world: None,
+                    appearance: None,
                 })
                 .collect(),
             image_motion: None,

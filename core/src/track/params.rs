@@ -182,6 +182,12 @@ pub struct ClassReidParams {
     /// Drift only: longest time, s, an end is extrapolated by its own (shrunk) velocity on
     /// top of the drift.
     pub own_motion_s: f64,
+    /// Appearance gate: an exit and an entry of this class whose mean colour signatures
+    /// ([`super::appearance::Appearance`], from the pixels of their detections) are further
+    /// apart than this Hellinger distance are never linked. Only pairs where both ends have
+    /// a signature (`reid.appearance_min_count` detections with one) are judged; the others
+    /// are linked on position alone. 1 (the largest distance) turns the gate off.
+    pub appearance_gate: f64,
 }
 
 /// Swimmer diffusion, m^2/s (see [`ClassReidParams::SWIMMER`]).
@@ -235,6 +241,7 @@ impl ClassReidParams {
         adrift: true,
         own_speed_std_m_s: 0.15,
         own_motion_s: 10.0,
+        appearance_gate: 0.6,
     };
 
     /// Boat-like objects (boats, jetskis): fast, purposeful motion.
@@ -260,6 +267,7 @@ impl ClassReidParams {
         adrift: false,
         own_speed_std_m_s: 5.0,
         own_motion_s: 10.0,
+        appearance_gate: 1.0,
     };
 }
 
@@ -367,6 +375,9 @@ pub struct ReidParams {
     /// sequence (SeaDronesSee clips last a few minutes); online the bank must be bounded:
     /// 600 s covers a clip.
     pub memory_max_s: f64,
+    /// Fewest detections with a colour signature before a track end's mean signature is
+    /// used by the class's `appearance_gate`.
+    pub appearance_min_count: u32,
     /// Sea drift estimated from the tracks of the classes that are `adrift`, used by the
     /// Mahalanobis long-term gate.
     pub drift: DriftParams,
@@ -395,6 +406,7 @@ impl Default for ReidParams {
             gate_chi2: 9.0,
             likelihood_cost: true,
             memory_max_s: 600.0,
+            appearance_min_count: 3,
             drift: DriftParams::default(),
         }
     }
@@ -610,6 +622,11 @@ impl TrackerParams {
         )?;
         check_positive(r.memory_max_s, limits::MEMORY_MAX_S, "reid.memory_max_s")?;
         check_positive(r.gate_chi2, limits::CHI2, "reid.gate_chi2")?;
+        check(
+            (1..=limits::WINDOW_FRAMES).contains(&r.appearance_min_count),
+            "reid.appearance_min_count",
+            &format!("in [1, {}]", limits::WINDOW_FRAMES),
+        )?;
         check_range(
             r.defer_margin_chi2,
             0.0,
@@ -680,6 +697,12 @@ impl TrackerParams {
                 0.0,
                 limits::GATE_M,
                 &format!("{path}.view_bias_m"),
+            )?;
+            check_range(
+                c.appearance_gate,
+                0.0,
+                1.0,
+                &format!("{path}.appearance_gate"),
             )?;
             check_range(
                 c.own_speed_std_m_s,

@@ -26,6 +26,7 @@ use std::collections::BTreeSet;
 
 use nalgebra::{Matrix2, Vector2};
 
+use super::appearance::Appearance;
 use super::assign::solve_gated;
 use super::drift::{DriftEstimate, SeaDrift};
 use super::online::mahalanobis2;
@@ -52,6 +53,9 @@ pub struct TrackEnd {
     /// For an exit: whether the track's last box touched the image border (it left the view;
     /// only long-term ReID applies). Ignored for entries.
     pub left_view: bool,
+    /// Mean colour signature of the track's detections up to this end (the whole track for
+    /// an exit), when it has enough of them (`reid.appearance_min_count`).
+    pub appearance: Option<Appearance>,
 }
 
 /// Where and when an object was observed, for [`with_chain_velocity`].
@@ -300,7 +304,22 @@ fn within_short_term_gate(
 /// the exit (the two tracks never coexisted), and the gap within the memory.
 fn may_link(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
     let gap = entry.time_s - exit.time_s;
-    exit.class_id == entry.class_id && gap > 0.0 && gap <= params.memory_max_s
+    exit.class_id == entry.class_id
+        && gap > 0.0
+        && gap <= params.memory_max_s
+        && appearance_compatible(exit, entry, params)
+}
+
+/// Whether the two ends' signatures are within `reid.appearance_gate` of each other (or one
+/// of them has none).
+fn appearance_compatible(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> bool {
+    match (&exit.appearance, &entry.appearance) {
+        (Some(a), Some(b)) => {
+            let gate = params.class(exit.class_id).appearance_gate;
+            gate >= 1.0 || a.distance(b) <= gate
+        }
+        _ => true,
+    }
 }
 
 /// Whether ReID could link this exit to this entry at all: the pair passes the short-term
@@ -526,6 +545,7 @@ mod tests {
             pos_cov_m2: Matrix2::identity(),
             vel_cov_m2_s2: Matrix2::identity() * 0.01,
             left_view: left,
+            appearance: None,
         }
     }
 
@@ -596,6 +616,66 @@ mod tests {
         );
         let earlier = [end(1, 4.0, 0.0, 0.0, 0.0, 0.0, false)];
         assert!(associate_exits_to_entries(&exits, &earlier, &p, &SeaDrift::default()).is_empty());
+    }
+
+    /// A signature with all its weight in one bin.
+    fn colour(bin: usize) -> Option<Appearance> {
+        let mut bins = [0.0; crate::track::appearance::BINS];
+        bins[bin] = 1.0;
+        Some(Appearance { bins })
+    }
+
+    /// Two swimmers come back swapped in position: the appearance gate keeps each with its
+    /// own jacket; without signatures on either side, or with the gate off, position decides.
+    #[test]
+    fn the_appearance_gate_keeps_jackets_apart() {
+        let mut p = ReidParams::default();
+        p.classes.get_mut(&1).unwrap().appearance_gate = 0.6;
+        let exits = [
+            TrackEnd {
+                appearance: colour(1),
+                ..end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true)
+            },
+            TrackEnd {
+                appearance: colour(6),
+                ..end(1, 0.0, 0.0, 3.0, 0.0, 0.0, true)
+            },
+        ];
+        // The green jacket (bin 6) returns where the orange one (bin 1) left, and vice versa.
+        let entries = [
+            TrackEnd {
+                appearance: colour(6),
+                ..end(1, 60.0, 0.0, 0.0, 0.0, 0.0, false)
+            },
+            TrackEnd {
+                appearance: colour(1),
+                ..end(1, 60.0, 0.0, 3.0, 0.0, 0.0, false)
+            },
+        ];
+        let drift = SeaDrift::default();
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &drift),
+            vec![(0, 1), (1, 0)]
+        );
+        assert!(within_gate(&exits[0], &entries[1], &p, &drift));
+        assert!(!within_gate(&exits[0], &entries[0], &p, &drift));
+        // Off: position alone.
+        p.classes.get_mut(&1).unwrap().appearance_gate = 1.0;
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &drift),
+            vec![(0, 0), (1, 1)]
+        );
+        // Ends without a signature are judged on position alone.
+        p.classes.get_mut(&1).unwrap().appearance_gate = 0.6;
+        let unseen = entries.map(|e| TrackEnd {
+            appearance: None,
+            ..e
+        });
+        assert!(within_gate(&exits[0], &unseen[0], &p, &drift));
+        assert_eq!(
+            associate_exits_to_entries(&exits, &unseen, &p, &drift),
+            vec![(0, 0), (1, 1)]
+        );
     }
 
     #[test]

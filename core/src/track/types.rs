@@ -4,6 +4,7 @@
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
+use super::appearance::Appearance;
 use super::bbox::BBox;
 use super::world::{WorldObservation, WorldState};
 
@@ -20,6 +21,10 @@ pub struct Detection {
     /// Sea-surface position of the box, when the frame has a camera pose. `None` (no
     /// metadata) still tracks, without world-distance ReID.
     pub world: Option<WorldObservation>,
+    /// Colour signature of the box's pixels, when the caller had them (long-gap ReID's
+    /// appearance gate, `reid.appearance_gate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub appearance: Option<Appearance>,
 }
 
 /// Everything the tracker needs about one frame.
