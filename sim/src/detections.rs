@@ -3,10 +3,12 @@
 //! false positives on glint and wave crests, confidence scores), so the tracker can be
 //! benchmarked without running a detector.
 
+use crate::render::Renderer;
 use crate::scenario::{Detector, ObjectClass};
 use crate::truth::{FrameTruth, Optics};
 use crate::world::World;
 use mgmot_core::geo::Pixel;
+use mgmot_core::track::{Appearance, BBox, RgbImage};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -36,6 +38,63 @@ pub struct Detection {
     /// Ground-truth track id, or `None` for a false positive (not written to COCO results).
     #[serde(skip)]
     pub truth_id: Option<u32>,
+    /// Colour signature of the box's rendered pixels ([`with_appearance`]); `None` until
+    /// computed, or when the box shows too little to say. In COCO results: an extra field
+    /// `appearance` in hex, as `mgmot detect` writes it.
+    #[serde(
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "signature_hex"
+    )]
+    pub appearance: Option<Appearance>,
+}
+
+fn signature_hex<S: serde::Serializer>(a: &Option<Appearance>, s: S) -> Result<S::Ok, S::Error> {
+    match a {
+        Some(a) => s.serialize_str(&a.to_hex()),
+        None => s.serialize_none(),
+    }
+}
+
+/// Pixels of sea rendered around a box for its signature (the background ring needs one).
+const SIGNATURE_MARGIN_PX: f64 = 2.0;
+
+/// Gives every detection of frame `ft` the colour signature of its box as the frame would
+/// be rendered ([`Renderer::render_window`]: the box and a margin only, so a long mission
+/// costs seconds instead of the hours a full render takes), computed by
+/// [`Appearance::from_box`], the function `mgmot` applies to real frames.
+pub fn with_appearance(
+    renderer: &Renderer,
+    world: &World,
+    optics: &Optics,
+    ft: &FrameTruth,
+    dets: &mut [Detection],
+) {
+    if dets.is_empty() {
+        return;
+    }
+    let objects = renderer.objects_in_view(world, optics, &ft.pose, ft.t_s);
+    let mut rgb = Vec::new();
+    for d in dets {
+        let [x, y, w, h] = d.bbox;
+        let x0 = (x - SIGNATURE_MARGIN_PX).floor().max(0.0);
+        let y0 = (y - SIGNATURE_MARGIN_PX).floor().max(0.0);
+        let x1 = (x + w + SIGNATURE_MARGIN_PX).ceil().max(x0);
+        let y1 = (y + h + SIGNATURE_MARGIN_PX).ceil().max(y0);
+        let window = (
+            x0 as usize,
+            y0 as usize,
+            (x1 - x0) as usize,
+            (y1 - y0) as usize,
+        );
+        renderer.render_window(optics, &ft.pose, ft.t_s, &objects, window, &mut rgb);
+        let width = (x1 - x0) as usize;
+        let image = RgbImage {
+            rgb: &rgb,
+            width: width.min(renderer.width().saturating_sub(window.0)),
+            height: window.3.min(renderer.height().saturating_sub(window.1)),
+        };
+        d.appearance = Appearance::from_box(&image, &BBox::new(x - x0, y - y0, w, h));
+    }
 }
 
 fn gauss(rng: &mut ChaCha8Rng) -> f64 {
@@ -108,6 +167,7 @@ pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection>
             bbox,
             score,
             truth_id: Some(b.object.id),
+            appearance: None,
         });
     }
     // False positives: glint sparkles near the sun's specular point and wave crests anywhere
@@ -156,6 +216,7 @@ pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection>
             bbox,
             score,
             truth_id: None,
+            appearance: None,
         });
     }
     out
@@ -188,11 +249,13 @@ fn clip(b: [f64; 4], w_img: f64, h_img: f64) -> Option<[f64; 4]> {
 }
 
 /// MOTChallenge detection lines: `frame,-1,x,y,w,h,score,class,-1,-1` (the class column carries
-/// the SeaDronesSee category id, which `mgmot track` reads for its class-wise ReID).
+/// the SeaDronesSee category id, which `mgmot track` reads for its class-wise ReID), and an
+/// eleventh column with the box's colour signature in hex ([`Appearance::to_hex`]) where the
+/// detection has one.
 pub fn mot_det_lines(frame_index: u64, dets: &[Detection]) -> String {
     let mut s = String::new();
     for d in dets {
-        let _ = writeln!(
+        let _ = write!(
             s,
             "{},-1,{:.2},{:.2},{:.2},{:.2},{:.4},{},-1,-1",
             frame_index + 1,
@@ -203,6 +266,10 @@ pub fn mot_det_lines(frame_index: u64, dets: &[Detection]) -> String {
             d.score,
             d.category_id
         );
+        if let Some(a) = &d.appearance {
+            let _ = write!(s, ",{}", a.to_hex());
+        }
+        s.push('\n');
     }
     s
 }
@@ -219,6 +286,74 @@ mod tests {
         assert!(miss_probability(&d, 3.0, 1.0) > 0.8);
         assert!(miss_probability(&d, 40.0, 1.0) < 0.05);
         assert!(miss_probability(&d, 40.0, 0.3) > miss_probability(&d, 40.0, 1.0));
+    }
+
+    /// The signatures rendered for the boxes of one swimmer are closer to each other than
+    /// to another swimmer's in a different jacket, and most boxes get one.
+    #[test]
+    fn signatures_tell_the_jackets_of_a_group_apart() {
+        let s = Scenario::load("swimmer_group").unwrap();
+        let optics = Optics::new(&s).unwrap();
+        let renderer = Renderer::new(&s, 1);
+        let world = World::new(s, 1);
+        let mut by_object: std::collections::BTreeMap<u32, Vec<Appearance>> =
+            std::collections::BTreeMap::new();
+        let (mut with, mut total) = (0, 0);
+        for index in (0..600).step_by(20) {
+            let ft = frame_truth(&world, &optics, index);
+            let mut dets = detect(&world, &optics, &ft);
+            with_appearance(&renderer, &world, &optics, &ft, &mut dets);
+            for d in dets.iter().filter(|d| d.truth_id.is_some()) {
+                total += 1;
+                if let (Some(id), Some(a)) = (d.truth_id, d.appearance) {
+                    with += 1;
+                    by_object.entry(id).or_default().push(a);
+                }
+            }
+        }
+        assert!(
+            with * 10 > total * 8,
+            "{with} of {total} boxes have a signature"
+        );
+        // Jacket colour of the swimmers that wear one throughout.
+        let jacket = |id: u32| {
+            let at = |t: f64| world.objects_at(t).into_iter().find(|o| o.id == id);
+            match (at(0.0), at(20.0)) {
+                (Some(a), Some(b))
+                    if a.class == ObjectClass::Swimmer && a.lifejacket && b.lifejacket =>
+                {
+                    Some(a.palette % 8)
+                }
+                _ => None,
+            }
+        };
+        let mean = |a: &[Appearance], b: &[Appearance]| {
+            let mut sum = 0.0;
+            for x in a {
+                for y in b {
+                    sum += x.distance(y);
+                }
+            }
+            sum / (a.len() * b.len()) as f64
+        };
+        let ids: Vec<u32> = by_object.keys().copied().collect();
+        let mut compared = 0;
+        for &i in &ids {
+            for &j in &ids {
+                if i >= j || jacket(i).is_none() || jacket(j).is_none() || jacket(i) == jacket(j) {
+                    continue;
+                }
+                let (a, b) = (&by_object[&i], &by_object[&j]);
+                let within = mean(a, a).max(mean(b, b));
+                let between = mean(a, b);
+                assert!(
+                    between > within,
+                    "objects {i} and {j}: between {between:.3}, within {within:.3}"
+                );
+                compared += 1;
+            }
+        }
+        assert!(compared > 0);
     }
 
     #[test]

@@ -148,22 +148,105 @@ impl Renderer {
         let pose = *pose;
         self.render_sea(optics, &pose, t_s, rgb);
         if with_objects {
-            let mut objects = world.objects_at(t_s);
-            let cam = pose.position_ned;
-            objects.sort_by(|a, b| {
-                let da = (Vector3::from(a.pos_ned_m) - cam).norm_squared();
-                let db = (Vector3::from(b.pos_ned_m) - cam).norm_squared();
-                db.total_cmp(&da)
-            });
+            let objects = self.objects_in_view(world, optics, &pose, t_s);
             let mut canvas = Canvas {
                 rgb,
+                origin: (0, 0),
                 width: self.width,
                 height: self.height,
             };
-            for o in &objects {
+            for (o, _) in &objects {
                 draw_object(&mut canvas, optics, &pose, o);
             }
         }
+    }
+
+    /// Renders the window `[x0, x0 + w) x [y0, y0 + h)` of the frame captured at true time
+    /// `t_s` into `rgb` (RGB24, `w * h * 3` long after the call): the same pixels
+    /// [`Renderer::render`] gives there (every sea pixel evaluated exactly instead of
+    /// interpolated along spans, a difference of a unit or two), at the cost of the window
+    /// alone. `objects` are the world's objects at `t_s` (far to near) with their image
+    /// positions, from [`Renderer::objects_in_view`]; only those near the window are drawn.
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_window(
+        &self,
+        optics: &Optics,
+        pose: &CameraPose,
+        t_s: f64,
+        objects: &[(ObjectState, Option<(f64, f64)>)],
+        window: (usize, usize, usize, usize),
+        rgb: &mut Vec<u8>,
+    ) {
+        let (x0, y0, w, h) = window;
+        let x1 = (x0 + w).min(self.width);
+        let y1 = (y0 + h).min(self.height);
+        let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+        rgb.clear();
+        rgb.resize(w * h * BYTES_PER_PIXEL, 0);
+        if w == 0 || h == 0 {
+            return;
+        }
+        let ctx = self.sea_frame(optics, pose, t_s);
+        for v in y0..y1 {
+            let sky = self.sky_at(v).map(|c| c.clamp(0.0, 255.0) as u8);
+            for x in x0..x1 {
+                let c = match &ctx {
+                    Some(ctx) => self.shade_exact(ctx, x, v, sky),
+                    None => sky,
+                };
+                let i = ((v - y0) * w + (x - x0)) * BYTES_PER_PIXEL;
+                rgb[i..i + BYTES_PER_PIXEL].copy_from_slice(&c);
+            }
+        }
+        let mut canvas = Canvas {
+            rgb,
+            origin: (x0, y0),
+            width: w,
+            height: h,
+        };
+        for (o, centre) in objects {
+            // An object whose centre projects far from the window cannot reach it (the
+            // largest boats span a few hundred pixels only when very close).
+            let near = centre.is_none_or(|(u, v)| {
+                let reach = 400.0;
+                u > x0 as f64 - reach
+                    && u < x1 as f64 + reach
+                    && v > y0 as f64 - reach
+                    && v < y1 as f64 + reach
+            });
+            if near {
+                draw_object(&mut canvas, optics, pose, o);
+            }
+        }
+    }
+
+    /// The world's objects at `t_s`, far to near from `pose`, each with its centre's image
+    /// position (`None` when it does not project), for [`Renderer::render_window`].
+    pub fn objects_in_view(
+        &self,
+        world: &World,
+        optics: &Optics,
+        pose: &CameraPose,
+        t_s: f64,
+    ) -> Vec<(ObjectState, Option<(f64, f64)>)> {
+        let mut objects = world.objects_at(t_s);
+        let cam = pose.position_ned;
+        objects.sort_by(|a, b| {
+            let da = (Vector3::from(a.pos_ned_m) - cam).norm_squared();
+            let db = (Vector3::from(b.pos_ned_m) - cam).norm_squared();
+            db.total_cmp(&da)
+        });
+        objects
+            .into_iter()
+            .map(|o| {
+                let px = optics
+                    .model
+                    .project_to_image(pose, &Vector3::from(o.pos_ned_m))
+                    .ok()
+                    .map(|p| (p.u, p.v));
+                (o, px)
+            })
+            .collect()
     }
 
     /// Fits the pixel -> (north, east, 1) homography from four pixels on the water.
@@ -195,10 +278,20 @@ impl Renderer {
 
     fn render_sea(&self, optics: &Optics, pose: &CameraPose, t_s: f64, rgb: &mut [u8]) {
         let (w, h) = (self.width, self.height);
-        let Some(hm) = self.image_to_sea(optics, pose) else {
+        let Some(ctx) = self.sea_frame(optics, pose, t_s) else {
             self.fill_sky(rgb, 0, h);
             return;
         };
+        for v in 0..h {
+            let line = &mut rgb[v * w * BYTES_PER_PIXEL..(v + 1) * w * BYTES_PER_PIXEL];
+            self.render_row(&ctx, v, line);
+        }
+    }
+
+    /// The per-frame constants of the sea shading seen from `pose` at `t_s`, or `None` when
+    /// no part of the image shows the sea.
+    fn sea_frame(&self, optics: &Optics, pose: &CameraPose, t_s: f64) -> Option<SeaFrame> {
+        let hm = self.image_to_sea(optics, pose)?;
         let cam_n = pose.position_ned.x;
         let cam_e = pose.position_ned.y;
         let alt = (optics.sea.down_m - pose.position_ned.z).max(0.1);
@@ -255,7 +348,7 @@ impl Renderer {
             let d2 = i as f64 / g2_scale;
             *g = (-d2 / (2.0 * glint_sigma * glint_sigma)).exp() as f32;
         }
-        let ctx = SeaFrame {
+        Some(SeaFrame {
             forms: [rel_n, rel_e, swell_u, swell_v, chop_u, chop_v, rw],
             swell_off,
             chop_off,
@@ -266,11 +359,7 @@ impl Renderer {
             lut_lod_a,
             lut_lod_b,
             lut_glint,
-        };
-        for v in 0..h {
-            let line = &mut rgb[v * w * BYTES_PER_PIXEL..(v + 1) * w * BYTES_PER_PIXEL];
-            self.render_row(&ctx, v, line);
-        }
+        })
     }
 
     /// Shading inputs of one pixel position, computed exactly (with the perspective
@@ -373,33 +462,30 @@ impl Renderer {
                     // Near or above the horizon: every pixel exactly.
                     for x in u..end {
                         let px = &mut line[x * BYTES_PER_PIXEL..(x + 1) * BYTES_PER_PIXEL];
-                        match self.sea_point(ctx, x as f64 + 0.5, vc) {
-                            None => px.copy_from_slice(&sky),
-                            Some(p) => {
-                                let swell =
-                                    sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
-                                let chop = f32::from(
-                                    self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)],
-                                );
-                                let shade =
-                                    1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
-                                let spark = if chop > 170.0 {
-                                    (chop - 170.0) * p.sparkle
-                                } else {
-                                    0.0
-                                };
-                                for (c, out) in px.iter_mut().enumerate() {
-                                    // Float-to-int `as` saturates to 0..=255.
-                                    *out = (p.c0[c] * shade + p.c1[c] + spark) as u8;
-                                }
-                            }
-                        }
+                        px.copy_from_slice(&self.shade_exact(ctx, x, v, sky));
                     }
                 }
             }
             left = right;
             u = end;
         }
+    }
+
+    /// The colour of pixel `(x, v)`, evaluated exactly (`sky` above the horizon).
+    fn shade_exact(&self, ctx: &SeaFrame, x: usize, v: usize, sky: [u8; 3]) -> [u8; 3] {
+        let Some(p) = self.sea_point(ctx, x as f64 + 0.5, v as f64 + 0.5) else {
+            return sky;
+        };
+        let swell = sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
+        let chop = f32::from(self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)]);
+        let shade = 1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
+        let spark = if chop > 170.0 {
+            (chop - 170.0) * p.sparkle
+        } else {
+            0.0
+        };
+        // Float-to-int `as` saturates to 0..=255.
+        std::array::from_fn(|c| (p.c0[c] * shade + p.c1[c] + spark) as u8)
     }
 
     fn sky_at(&self, v: usize) -> [f32; 3] {
@@ -547,19 +633,31 @@ fn fit_homography(src: &[(f64, f64); 4], dst: &[(f64, f64); 4]) -> Option<Matrix
     m.iter().all(|v| v.is_finite()).then_some(m)
 }
 
-/// An RGB24 image being drawn on.
+/// An RGB24 image being drawn on: the window of the frame whose top-left pixel is
+/// `origin` (the whole frame: origin (0, 0)).
 struct Canvas<'a> {
     rgb: &'a mut [u8],
+    origin: (usize, usize),
     width: usize,
     height: usize,
 }
 
 impl Canvas<'_> {
+    /// One past the last frame column / row of the window.
+    fn x_end(&self) -> usize {
+        self.origin.0 + self.width
+    }
+
+    fn y_end(&self) -> usize {
+        self.origin.1 + self.height
+    }
+
+    /// Blends frame pixel `(x, y)` towards `c`.
     fn blend(&mut self, x: usize, y: usize, c: [u8; 3], alpha: f32) {
-        if x >= self.width || y >= self.height {
+        if x < self.origin.0 || y < self.origin.1 || x >= self.x_end() || y >= self.y_end() {
             return;
         }
-        let i = (y * self.width + x) * BYTES_PER_PIXEL;
+        let i = ((y - self.origin.1) * self.width + (x - self.origin.0)) * BYTES_PER_PIXEL;
         for (px, ck) in self.rgb[i..i + BYTES_PER_PIXEL].iter_mut().zip(c) {
             let old = f32::from(*px);
             *px = (old + (f32::from(ck) - old) * alpha) as u8;
@@ -581,12 +679,13 @@ impl Canvas<'_> {
             y0 = y0.min(y);
             y1 = y1.max(y);
         }
-        if x1 < 0.0 || y1 < 0.0 || x0 > self.width as f64 || y0 > self.height as f64 {
+        let (ox, oy) = (self.origin.0 as f64, self.origin.1 as f64);
+        if x1 < ox || y1 < oy || x0 > self.x_end() as f64 || y0 > self.y_end() as f64 {
             return;
         }
         let mut drawn = false;
-        let ys = (y0 - 0.5).ceil().max(0.0) as usize;
-        let ye = ((y1 - 0.5).floor().min(self.height as f64 - 1.0)).max(-1.0);
+        let ys = (y0 - 0.5).ceil().max(oy) as usize;
+        let ye = ((y1 - 0.5).floor().min(self.y_end() as f64 - 1.0)).max(-1.0);
         if ye >= 0.0 {
             for y in ys..=(ye as usize) {
                 let yc = y as f64 + 0.5;
@@ -603,8 +702,8 @@ impl Canvas<'_> {
                 if lo > hi {
                     continue;
                 }
-                let xs = (lo - 0.5).ceil().max(0.0);
-                let xe = (hi - 0.5).floor().min(self.width as f64 - 1.0);
+                let xs = (lo - 0.5).ceil().max(ox);
+                let xe = (hi - 0.5).floor().min(self.x_end() as f64 - 1.0);
                 if xe < xs {
                     continue;
                 }
@@ -847,6 +946,56 @@ fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A window renders the pixels of the whole frame there (the sea within the span
+    /// interpolation's unit or two, the objects exactly).
+    #[test]
+    fn a_window_shows_what_the_frame_shows_there() {
+        let s = Scenario::load("swimmer_group").unwrap();
+        let optics = Optics::new(&s).unwrap();
+        let world = World::new(s.clone(), 1);
+        let r = Renderer::new(&s, 1);
+        let t = 5.0;
+        let mut frame = vec![0u8; r.frame_bytes()];
+        r.render(&world, &optics, t, &mut frame, true);
+        let pose = optics.pose(&world.truth(t));
+        let objects = r.objects_in_view(&world, &optics, &pose, t);
+        let on_screen: Vec<(f64, f64)> = objects
+            .iter()
+            .filter_map(|(_, c)| *c)
+            .filter(|&(u, v)| {
+                u > 40.0 && v > 40.0 && u < r.width() as f64 - 40.0 && v < r.height() as f64 - 40.0
+            })
+            .collect();
+        assert!(!on_screen.is_empty());
+        let mut win = Vec::new();
+        for (u, v) in on_screen {
+            let (x0, y0, w, h) = (u as usize - 30, v as usize - 30, 60, 60);
+            r.render_window(&optics, &pose, t, &objects, (x0, y0, w, h), &mut win);
+            assert_eq!(win.len(), w * h * BYTES_PER_PIXEL);
+            let mut worst = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    for c in 0..BYTES_PER_PIXEL {
+                        let a = frame[((y0 + y) * r.width() + x0 + x) * BYTES_PER_PIXEL + c];
+                        let b = win[(y * w + x) * BYTES_PER_PIXEL + c];
+                        worst = worst.max(a.abs_diff(b));
+                    }
+                }
+            }
+            assert!(worst <= 4, "window at ({x0}, {y0}) differs by {worst}");
+        }
+        // A window past the frame's edge is cut to it.
+        r.render_window(
+            &optics,
+            &pose,
+            t,
+            &objects,
+            (r.width() - 5, 0, 20, 10),
+            &mut win,
+        );
+        assert_eq!(win.len(), 5 * 10 * BYTES_PER_PIXEL);
+    }
 
     #[test]
     fn homography_fit_matches_project_to_sea() {

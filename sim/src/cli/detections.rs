@@ -3,7 +3,8 @@
 use super::render::{progress, TruthWriter};
 use super::ScenarioArgs;
 use anyhow::Context;
-use mgmot_sim::detections::{detect, mot_det_lines, Detection};
+use mgmot_sim::detections::{detect, mot_det_lines, with_appearance, Detection};
+use mgmot_sim::render::Renderer;
 use mgmot_sim::truth::{frame_truth, Optics};
 use std::io::Write;
 use std::path::PathBuf;
@@ -22,6 +23,12 @@ pub struct Args {
     /// default: beside the output file, `<stem>_gt/`.
     #[arg(long)]
     gt_dir: Option<PathBuf>,
+    /// Add each box's colour signature (an eleventh column of a MOT file, a field
+    /// `appearance` of a COCO entry, in hex): the box is rendered as `mgmot-sim render`
+    /// would draw the frame there and the signature computed as `mgmot` does from real
+    /// pixels (`reid.appearance_gate`).
+    #[arg(long)]
+    appearance: bool,
 }
 
 /// Writes the detections and the ground truth.
@@ -40,6 +47,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
     };
     let world = args.scenario.world()?;
+    let renderer = args
+        .appearance
+        .then(|| Renderer::new(&world.scenario, world.seed));
     let optics = Optics::new(&world.scenario).context("camera or origin invalid")?;
     let gt_dir = args.gt_dir.clone().unwrap_or_else(|| {
         let stem = args
@@ -56,7 +66,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut txt = String::new();
     for index in 0..n {
         let ft = frame_truth(&world, &optics, index);
-        let dets = detect(&world, &optics, &ft);
+        let mut dets = detect(&world, &optics, &ft);
+        if let Some(renderer) = &renderer {
+            with_appearance(renderer, &world, &optics, &ft, &mut dets);
+        }
         if coco {
             all.extend_from_slice(&dets);
         } else {
