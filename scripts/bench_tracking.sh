@@ -98,7 +98,7 @@ for sc in $scenarios; do
     echo "[$n/$total] $sc seed $seed" >&2
     seed_flag=()
     [ "$seed" = default ] || seed_flag=(--seed "$seed")
-    "$bin/mgmot-sim" detections --scenario "$sc" "${seed_flag[@]}" --out "$dir/det.txt" --gt-dir "$dir/gt" >/dev/null 2>&1
+    "$bin/mgmot-sim" detections --scenario "$sc" "${seed_flag[@]}" --appearance --out "$dir/det.txt" --gt-dir "$dir/gt" >/dev/null 2>&1
     track_and_score "$dir" "$dir/det.txt" "${track_config[@]}"
   done
 done
