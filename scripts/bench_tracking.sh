@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The tracking benchmark, from scratch: every scenario x seeds, the simulated detector's boxes
-# tracked four ways (baseline = BoT-SORT without metadata, online as flown, online with
+# (each with its colour signature, `mgmot-sim detections --appearance`) tracked four ways (baseline = BoT-SORT without metadata, online as flown, online with
 # provisional tracks withheld, offline) plus the identity oracle (every detection matched to
 # the truth takes its true id: the ceiling association can reach with these detections), all
 # scored by `mgmot eval` (TrackEval-exact). Prints one Markdown table and writes
