@@ -225,16 +225,34 @@ struct LongTermFit {
     d2: f64,
     /// `ln det(S)`, with `S` in m^2.
     log_det: f64,
+    /// Appearance evidence in the cost's units ([`appearance_cost`]; negative where the
+    /// colours agree).
+    appearance: f64,
 }
 
 impl LongTermFit {
     /// The assignment cost: `d2 + log_det` when ranking by likelihood, else `d2`.
     fn cost(&self, likelihood: bool) -> f64 {
         if likelihood {
-            self.d2 + self.log_det
+            self.d2 + self.appearance + self.log_det
         } else {
-            self.d2
+            self.d2 + self.appearance
         }
+    }
+}
+
+/// The colours' evidence for a long-term pair, in the units of the link cost (squared
+/// Mahalanobis distance): `appearance_weight_chi2 * (distance / appearance_gate - 0.5)`, from
+/// `-weight / 2` for identical signatures to `+weight / 2` at the gate (beyond it the pair is
+/// not admissible at all), 0 where either end has no signature or the class has no gate. It
+/// is added to the squared distance both in the gate and in the cost, so a pair whose colours
+/// agree may lie a little further apart than one whose colours merely pass.
+fn appearance_cost(exit: &TrackEnd, entry: &TrackEnd, class: &ClassReidParams) -> f64 {
+    match (&exit.appearance, &entry.appearance) {
+        (Some(a), Some(b)) if class.appearance_weight_chi2 > 0.0 && class.appearance_gate < 1.0 => {
+            class.appearance_weight_chi2 * (a.distance(b) / class.appearance_gate - 0.5)
+        }
+        _ => 0.0,
     }
 }
 
@@ -278,10 +296,15 @@ fn long_term_fit(
     if d.norm() > class.max_gate_m {
         return None;
     }
-    let d2 = mahalanobis2(d, s).filter(|&d2| d2 <= gate_chi2)?;
+    let appearance = appearance_cost(exit, entry, class);
+    let d2 = mahalanobis2(d, s).filter(|&d2| d2 + appearance <= gate_chi2)?;
     // S is positive definite here (mahalanobis2 inverted it and d2 >= 0).
     let log_det = s.determinant().ln();
-    log_det.is_finite().then_some(LongTermFit { d2, log_det })
+    log_det.is_finite().then_some(LongTermFit {
+        d2,
+        log_det,
+        appearance,
+    })
 }
 
 /// Short-term ReID cost, Eq. 6: `|| X_t_exit_i - X_t_entry_j ||`, m.
@@ -676,6 +699,61 @@ mod tests {
             associate_exits_to_entries(&exits, &unseen, &p, &drift),
             vec![(0, 0), (1, 1)]
         );
+    }
+
+    /// With the appearance weight, of two exits at the same distance the one whose colour
+    /// agrees wins, and an agreeing pair is admitted a little beyond the position gate.
+    #[test]
+    fn agreeing_colours_lower_the_link_cost() {
+        let mut p = ReidParams::default();
+        let swimmer = p.classes.get_mut(&1).unwrap();
+        swimmer.appearance_gate = 0.6;
+        swimmer.appearance_weight_chi2 = 4.0;
+        let mut near_colour = colour(1).unwrap();
+        near_colour.bins[2] = 0.3;
+        let exits = [
+            TrackEnd {
+                appearance: Some(near_colour),
+                ..end(1, 0.0, 0.0, -1.0, 0.0, 0.0, true)
+            },
+            TrackEnd {
+                appearance: colour(1),
+                ..end(1, 0.0, 0.0, 1.0, 0.0, 0.0, true)
+            },
+        ];
+        let entry = [TrackEnd {
+            appearance: colour(1),
+            ..end(1, 60.0, 0.0, 0.0, 0.0, 0.0, false)
+        }];
+        let drift = SeaDrift::default();
+        let cp = p.class(1);
+        let near = appearance_cost(&exits[0], &entry[0], cp);
+        let same = appearance_cost(&exits[1], &entry[0], cp);
+        assert!(same < near, "{same} {near}");
+        assert_relative_eq!(same, -2.0, epsilon = 1e-6);
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entry, &p, &drift),
+            vec![(1, 0)]
+        );
+        // Without the weight the two are equally far: either may win, but the cost no
+        // longer prefers the matching colour.
+        let mut off = p.clone();
+        off.classes.get_mut(&1).unwrap().appearance_weight_chi2 = 0.0;
+        assert_eq!(appearance_cost(&exits[0], &entry[0], off.class(1)), 0.0);
+        // Beyond the position gate by less than the bonus: admitted only with agreeing colours.
+        let far_exit = TrackEnd {
+            pos_ne_m: Vector2::new(0.0, 0.0),
+            ..exits[1]
+        };
+        let gap_s = 60.0;
+        let spread = cp.diffusion_m2_s * gap_s + cp.view_bias_m * cp.view_bias_m + 2.0;
+        let e = (p.gate_chi2 + 1.0).sqrt() * spread.sqrt();
+        let far_entry = TrackEnd {
+            pos_ne_m: Vector2::new(0.0, e),
+            ..entry[0]
+        };
+        assert!(within_gate(&far_exit, &far_entry, &p, &drift));
+        assert!(!within_gate(&far_exit, &far_entry, &off, &drift));
     }
 
     #[test]
