@@ -86,12 +86,12 @@ pub fn with_appearance(
             (x1 - x0) as usize,
             (y1 - y0) as usize,
         );
-        renderer.render_window(optics, &ft.pose, ft.t_s, &objects, window, &mut rgb);
-        let width = (x1 - x0) as usize;
+        let (width, height) =
+            renderer.render_window(optics, &ft.pose, ft.t_s, &objects, window, &mut rgb);
         let image = RgbImage {
             rgb: &rgb,
-            width: width.min(renderer.width().saturating_sub(window.0)),
-            height: window.3.min(renderer.height().saturating_sub(window.1)),
+            width,
+            height,
         };
         d.appearance = Appearance::from_box(&image, &BBox::new(x - x0, y - y0, w, h));
     }

@@ -167,7 +167,7 @@ impl Renderer {
     /// interpolated along spans, a difference of a unit or two), at the cost of the window
     /// alone. `objects` are the world's objects at `t_s` (far to near) with their image
     /// positions, from [`Renderer::objects_in_view`]; only those near the window are drawn.
-    #[allow(clippy::too_many_arguments)]
+    /// Returns the window's width and height once cut to the frame.
     pub fn render_window(
         &self,
         optics: &Optics,
@@ -176,7 +176,7 @@ impl Renderer {
         objects: &[(ObjectState, Option<(f64, f64)>)],
         window: (usize, usize, usize, usize),
         rgb: &mut Vec<u8>,
-    ) {
+    ) -> (usize, usize) {
         let (x0, y0, w, h) = window;
         let x1 = (x0 + w).min(self.width);
         let y1 = (y0 + h).min(self.height);
@@ -184,7 +184,7 @@ impl Renderer {
         rgb.clear();
         rgb.resize(w * h * BYTES_PER_PIXEL, 0);
         if w == 0 || h == 0 {
-            return;
+            return (w, h);
         }
         let ctx = self.sea_frame(optics, pose, t_s);
         for v in y0..y1 {
@@ -218,6 +218,7 @@ impl Renderer {
                 draw_object(&mut canvas, optics, pose, o);
             }
         }
+        (w, h)
     }
 
     /// The world's objects at `t_s`, far to near from `pose`, each with its centre's image
@@ -971,7 +972,8 @@ mod tests {
         let mut win = Vec::new();
         for (u, v) in on_screen {
             let (x0, y0, w, h) = (u as usize - 30, v as usize - 30, 60, 60);
-            r.render_window(&optics, &pose, t, &objects, (x0, y0, w, h), &mut win);
+            let size = r.render_window(&optics, &pose, t, &objects, (x0, y0, w, h), &mut win);
+            assert_eq!(size, (w, h));
             assert_eq!(win.len(), w * h * BYTES_PER_PIXEL);
             let mut worst = 0;
             for y in 0..h {
@@ -986,7 +988,7 @@ mod tests {
             assert!(worst <= 4, "window at ({x0}, {y0}) differs by {worst}");
         }
         // A window past the frame's edge is cut to it.
-        r.render_window(
+        let size = r.render_window(
             &optics,
             &pose,
             t,
@@ -994,6 +996,7 @@ mod tests {
             (r.width() - 5, 0, 20, 10),
             &mut win,
         );
+        assert_eq!(size, (5, 10));
         assert_eq!(win.len(), 5 * 10 * BYTES_PER_PIXEL);
     }
 
