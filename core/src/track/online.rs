@@ -667,11 +667,22 @@ impl Tracker {
 
     /// A track lost from view goes to the memory bank; one still waiting on a contested ReID
     /// decision goes there undecided, under its own id (README, "A contested decision waits").
+    /// A glimpse (lost before its decision was due, while it carried a provisional old id)
+    /// does not, under `reid.forget_glimpses`.
     fn mark_lost(&mut self, i: usize) {
         let reid = &self.params.reid;
         let t = &mut self.tracks[i];
         t.phase = Phase::Lost;
         if !reid.enabled {
+            return;
+        }
+        let young = t.end_frame.saturating_sub(t.start_frame) < u64::from(reid.window_frames);
+        if reid.forget_glimpses && !t.reid_decided && young && t.provisional_link.is_some() {
+            tracing::debug!(
+                id = t.id,
+                start_frame = t.start_frame,
+                "ReID glimpse forgotten"
+            );
             return;
         }
         if let Some(exit) = t.exit(reid.exit_border_fraction, reid.appearance_min_count) {
@@ -1159,6 +1170,49 @@ mod tests {
             |_, _| true,
         );
         assert_eq!(links, vec![(1, 0)]);
+    }
+
+    /// Memory-bank ids after the tracks of `two_exits_and_entries(entries_e_m, ages)` got
+    /// their provisional old ids and were all lost.
+    fn memory_after_loss(params: TrackerParams, entries_e_m: &[f64], ages: &[u64]) -> Vec<u64> {
+        let mut tr = two_exits_and_entries_with(params, entries_e_m, ages);
+        let mut merges = Vec::new();
+        tr.online_reid(1000, false, &mut merges);
+        assert!(merges.is_empty(), "{merges:?}");
+        for i in 0..tr.tracks.len() {
+            tr.mark_lost(i);
+        }
+        tr.memory.iter().map(|m| m.id).collect()
+    }
+
+    /// A track lost three frames after it appeared beside a swimmer's exit (a glimpse, under
+    /// that swimmer's provisional id) is forgotten, so the swimmer's next track is offered
+    /// the swimmer's own exit rather than the glimpse's fresher one; a glimpse far from
+    /// every exit (no provisional id: a new object's first sighting) and a track that lived
+    /// past `window_frames` join the memory bank. With `forget_glimpses` off, all do.
+    #[test]
+    fn a_glimpse_under_a_provisional_id_is_forgotten_when_lost() {
+        let w = u64::from(TrackerParams::default().reid.window_frames);
+        let on = memory_after_loss(TrackerParams::default(), &[1.0, 60.0], &[3, 3]);
+        assert_eq!(
+            on,
+            vec![1, 2, 11],
+            "the glimpse beside exit 1 (id 10) is forgotten"
+        );
+        let mut off = TrackerParams::default();
+        off.reid.forget_glimpses = false;
+        assert_eq!(
+            memory_after_loss(off, &[1.0, 60.0], &[3, 3]),
+            vec![1, 2, 10, 11]
+        );
+        // a track past its window with a contested decision still pending is no glimpse
+        let mut tr = two_exits_and_entries(&[5.0], &[w + 1]);
+        tr.tracks[0].provisional_link = Some(ProvisionalLink { id: 1, uid: 1 });
+        tr.mark_lost(0);
+        assert_eq!(
+            tr.memory.iter().map(|m| m.id).collect::<Vec<_>>(),
+            vec![1, 2, 10]
+        );
     }
 
     /// A frame of 640 x 480 px at 30 fps with swimmer detections at these box centres.
