@@ -145,8 +145,8 @@ const LAWNMOWER: Committed = Committed {
     offline: 0.974,
 };
 const SQUARE: Committed = Committed {
-    online: 0.902,
-    online_withheld: 0.882,
+    online: 0.943,
+    online_withheld: 0.922,
     offline: 0.959,
 };
 const SECTOR: Committed = Committed {
