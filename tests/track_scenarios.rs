@@ -283,10 +283,12 @@ fn target_leaving_and_reentering_gets_its_old_id_in_both_modes() {
     no_reid.reid.enabled = false;
     assert_eq!(offline_ids(&frames, &truth, &no_reid)[&0].len(), 2);
 
-    // Each mode has its own long-term gate: `reid.gate_chi2` online, `offline.gate_chi2`
-    // offline. Shut one and only that mode loses the link.
+    // Each mode has its own long-term gate: `reid.gate_chi2` (and `reid.long_gap_gate_chi2`
+    // after long gaps) online, `offline.gate_chi2` offline. Shut one and only that mode
+    // loses the link.
     let mut online_shut = TrackerParams::default();
     online_shut.reid.gate_chi2 = 1e-9;
+    online_shut.reid.long_gap_gate_chi2 = 1e-9;
     assert_eq!(online_ids(&frames, &truth, online_shut.clone()).1, 0);
     assert_eq!(offline_ids(&frames, &truth, &online_shut)[&0].len(), 1);
     let mut offline_shut = TrackerParams::default();

@@ -176,9 +176,10 @@ pub fn track_sequence(
         // Exits and entries share indices (one of each per tracklet): a link needs the
         // entry's tracklet to start after the exit's tracklet ended.
         let drift = tracker.sea_drift();
-        // Offline has its own long-term gate (`offline.gate_chi2`).
+        // Offline has its own long-term gate (`offline.gate_chi2`), the same for every gap.
         let mut reid = params.reid.clone();
         reid.gate_chi2 = params.offline.gate_chi2;
+        reid.long_gap_gate_chi2 = params.offline.gate_chi2;
         let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1;
         let mut links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, allowed);
         if params.offline.chain_velocity {

@@ -217,6 +217,16 @@ pub fn mahalanobis_long_term_cost(
     long_term_fit(exit, entry, class, drift, gate_chi2).map(|f| f.d2)
 }
 
+/// The squared Mahalanobis gate of a pair: `long_gap_gate_chi2` when the gap is at least
+/// `long_gap_s`, else `gate_chi2`.
+fn pair_gate(exit: &TrackEnd, entry: &TrackEnd, params: &ReidParams) -> f64 {
+    if entry.time_s - exit.time_s >= params.long_gap_s {
+        params.long_gap_gate_chi2
+    } else {
+        params.gate_chi2
+    }
+}
+
 /// How well a pair fits under the Mahalanobis gate: the squared distance and the log
 /// determinant of its covariance (see [`mahalanobis_long_term_cost`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -380,8 +390,10 @@ fn long_term_cost(
     drift: Option<&DriftEstimate>,
 ) -> f64 {
     match params.long_term_gate {
-        LongTermGate::Mahalanobis => long_term_fit(exit, entry, cp, drift, params.gate_chi2)
-            .map_or(f64::INFINITY, |f| f.cost(params.likelihood_cost)),
+        LongTermGate::Mahalanobis => {
+            long_term_fit(exit, entry, cp, drift, pair_gate(exit, entry, params))
+                .map_or(f64::INFINITY, |f| f.cost(params.likelihood_cost))
+        }
         LongTermGate::Mte => {
             let bime = extrapolate_bidirectional(exit, entry, cp.tau_memory_s);
             let gate = expanded_match_threshold(
@@ -461,7 +473,8 @@ pub fn associate_exits_to_entries_where(
                     let c = if !may_link(x, y, params) || !allowed(i, j) {
                         f64::INFINITY
                     } else if probabilistic {
-                        match long_term_fit(x, y, cp, class_drift.as_ref(), params.gate_chi2) {
+                        match long_term_fit(x, y, cp, class_drift.as_ref(), pair_gate(x, y, params))
+                        {
                             Some(fit) => {
                                 min_log_det[k] = min_log_det[k].min(fit.log_det);
                                 fit.cost(params.likelihood_cost)
@@ -489,10 +502,11 @@ pub fn associate_exits_to_entries_where(
             let mut n_rows = rows.len();
             if probabilistic {
                 for (k, &log_det) in min_log_det.iter().enumerate() {
+                    let gate = params.gate_chi2.max(params.long_gap_gate_chi2);
                     let price = if params.likelihood_cost && log_det.is_finite() {
-                        params.gate_chi2 + log_det
+                        gate + log_det
                     } else {
-                        params.gate_chi2
+                        gate
                     };
                     cost.extend(
                         (0..cols.len()).map(|j| if j == k { price } else { f64::INFINITY }),
@@ -747,7 +761,12 @@ mod tests {
         };
         let gap_s = 60.0;
         let spread = cp.diffusion_m2_s * gap_s + cp.view_bias_m * cp.view_bias_m + 2.0;
-        let e = (p.gate_chi2 + 1.0).sqrt() * spread.sqrt();
+        let gate = if gap_s >= p.long_gap_s {
+            p.long_gap_gate_chi2
+        } else {
+            p.gate_chi2
+        };
+        let e = (gate + 1.0).sqrt() * spread.sqrt();
         let far_entry = TrackEnd {
             pos_ne_m: Vector2::new(0.0, e),
             ..entry[0]
@@ -799,6 +818,33 @@ mod tests {
         // beyond max_gate_m nothing links, however long the gap
         let far = end(1, 500.0, cp.max_gate_m + 1.0, 0.0, 0.0, 0.0, false);
         assert!(mahalanobis_long_term_cost(&x, &far, &cp, None, 1e9).is_none());
+    }
+
+    #[test]
+    fn a_long_gap_is_gated_wider() {
+        let mut p = ReidParams::default();
+        let cp = *p.class(1);
+        let drift = SeaDrift::default();
+        let x = end(1, 0.0, 0.0, 0.0, 0.0, 0.0, true);
+        let entry_after = |gap: f64| end(1, gap, 16.0, 0.0, 0.0, 0.0, false);
+        // The same pair 40 s apart, its squared distance between the two gates.
+        let d2 = mahalanobis_long_term_cost(&x, &entry_after(40.0), &cp, None, 1e9).unwrap();
+        p.gate_chi2 = d2 * 0.9;
+        p.long_gap_gate_chi2 = d2 * 1.1;
+        p.long_gap_s = 30.0;
+        assert!(within_gate(&x, &entry_after(40.0), &p, &drift));
+        // A gap under long_gap_s keeps the narrow gate.
+        p.long_gap_s = 50.0;
+        assert!(!within_gate(&x, &entry_after(40.0), &p, &drift));
+        // And the assignment follows the gate: linked only as a long gap.
+        let exits = [x];
+        let entries = [entry_after(40.0)];
+        assert!(associate_exits_to_entries(&exits, &entries, &p, &drift).is_empty());
+        p.long_gap_s = 30.0;
+        assert_eq!(
+            associate_exits_to_entries(&exits, &entries, &p, &drift),
+            vec![(0, 0)]
+        );
     }
 
     #[test]
