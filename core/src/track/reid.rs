@@ -501,8 +501,8 @@ pub fn associate_exits_to_entries_where(
             // still decided by its best-determined candidate's squared distance.
             let mut n_rows = rows.len();
             if probabilistic {
+                let gate = params.gate_chi2.max(params.long_gap_gate_chi2);
                 for (k, &log_det) in min_log_det.iter().enumerate() {
-                    let gate = params.gate_chi2.max(params.long_gap_gate_chi2);
                     let price = if params.likelihood_cost && log_det.is_finite() {
                         gate + log_det
                     } else {
@@ -761,12 +761,7 @@ mod tests {
         };
         let gap_s = 60.0;
         let spread = cp.diffusion_m2_s * gap_s + cp.view_bias_m * cp.view_bias_m + 2.0;
-        let gate = if gap_s >= p.long_gap_s {
-            p.long_gap_gate_chi2
-        } else {
-            p.gate_chi2
-        };
-        let e = (gate + 1.0).sqrt() * spread.sqrt();
+        let e = (pair_gate(&exits[1], &entry[0], &p) + 1.0).sqrt() * spread.sqrt();
         let far_entry = TrackEnd {
             pos_ne_m: Vector2::new(0.0, e),
             ..entry[0]
