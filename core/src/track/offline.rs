@@ -201,6 +201,16 @@ pub fn track_sequence(
             }
             links = associate_exits_to_entries_where(&exits, &entries, &chain_reid, drift, allowed);
         }
+        for &(i, j) in &links {
+            tracing::debug!(
+                exit_id = exit_ids[i],
+                entry_id = entry_ids[j],
+                exit_frame = frames[spans[i].1].frame_index,
+                entry_frame = frames[spans[j].0].frame_index,
+                class_id = exits[i].class_id,
+                "offline ReID link"
+            );
+        }
         let successor: BTreeMap<u64, u64> = links
             .iter()
             .map(|&(i, j)| (exit_ids[i], entry_ids[j]))

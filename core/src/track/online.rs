@@ -57,6 +57,9 @@ struct Track {
     /// While undecided: the memory entry ReID would link this track to now, whose id it is
     /// reported under (`reid.provisional_old_id`).
     provisional_link: Option<ProvisionalLink>,
+    /// While undecided: it has been reported provisional (it lay within the gate of an exit
+    /// in the memory bank, or carried a provisional old id) and stays so until its decision.
+    flagged_provisional: bool,
     /// Mean colour signature of the matched detections that had one.
     appearance: AppearanceMean,
 }
@@ -306,6 +309,7 @@ impl Tracker {
             self.online_reid(input.frame_index, false, &mut merges);
         }
         self.tracks.retain(|t| t.phase != Phase::Removed);
+        self.flag_provisional();
 
         let mut tracks: Vec<TrackOutput> = self
             .tracks
@@ -361,18 +365,35 @@ impl Tracker {
             })
     }
 
-    /// Whether a reported track is provisional (see [`TrackOutput::provisional`]).
+    /// Whether a reported track is provisional (see [`TrackOutput::provisional`]): undecided
+    /// and flagged by [`Self::flag_provisional`].
     fn is_provisional(&self, t: &Track) -> bool {
-        if t.reid_decided || !self.params.reid.enabled || self.memory.is_empty() {
-            return false;
+        self.params.reid.enabled && !t.reid_decided && t.flagged_provisional
+    }
+
+    /// Flags the undecided tracks that may still be linked to an old one: a track is flagged
+    /// once it carries a provisional old id or its entry lies within the gate of an exit in
+    /// the memory bank, and it stays flagged until its decision. Without the latch a young
+    /// track's entry, taken from its position alone, drifts in and out of a gate from frame
+    /// to frame, and the frames outside it were reported under its own new id: a glimpse an
+    /// operator saw for a few frames as a second id.
+    fn flag_provisional(&mut self) {
+        if !self.params.reid.enabled || self.memory.is_empty() {
+            return;
         }
-        let Some(entry) = t.entry(self.params.reid.appearance_min_count) else {
-            return false;
-        };
-        self.memory.iter().any(|m| {
-            m.end_frame < t.start_frame
-                && within_gate(&m.exit, &entry, &self.params.reid, &self.drift)
-        })
+        let (memory, reid, drift) = (&self.memory, &self.params.reid, &self.drift);
+        for t in &mut self.tracks {
+            if t.reid_decided || t.flagged_provisional {
+                continue;
+            }
+            let Some(entry) = t.entry(reid.appearance_min_count) else {
+                continue;
+            };
+            t.flagged_provisional = t.provisional_link.is_some()
+                || memory.iter().any(|m| {
+                    m.end_frame < t.start_frame && within_gate(&m.exit, &entry, reid, drift)
+                });
+        }
     }
 
     /// Ends the sequence: tracks younger than `w` frames get their ReID decision now (with
@@ -516,6 +537,7 @@ impl Tracker {
                 last_image_size_px: input.image_size_px,
                 reid_decided: false,
                 provisional_link: None,
+                flagged_provisional: false,
                 matched_det: Some(j),
                 appearance: AppearanceMean::default(),
             };
@@ -1019,6 +1041,7 @@ mod tests {
                 last_image_size_px: (1000, 800),
                 reid_decided: false,
                 provisional_link: None,
+                flagged_provisional: false,
                 matched_det: None,
                 appearance: AppearanceMean::default(),
             });
@@ -1068,6 +1091,7 @@ mod tests {
         let mut tr = two_exits_and_entries(&[entry_e_m], &[w]);
         let mut merges = Vec::new();
         tr.online_reid(1000, false, &mut merges);
+        tr.flag_provisional();
         assert!(merges.is_empty(), "contested: no decision yet, {merges:?}");
         assert!(!tr.tracks[0].reid_decided);
         assert!(tr.is_provisional(&tr.tracks[0]));
@@ -1088,6 +1112,35 @@ mod tests {
         late.online_reid(1000, false, &mut merges);
         assert_eq!(merges.len(), 1);
         assert!(late.tracks[0].reid_decided);
+    }
+
+    /// An undecided track that once lay within an exit's gate stays provisional while its
+    /// young entry wanders out of every gate, until its decision; a track that never lay
+    /// within one is not provisional.
+    #[test]
+    fn a_provisional_flag_holds_until_the_decision() {
+        let w = u64::from(TrackerParams::default().reid.window_frames);
+        let mut tr = two_exits_and_entries(&[0.5, 100.0], &[w / 2, w / 2]);
+        tr.flag_provisional();
+        assert!(tr.is_provisional(&tr.tracks[0]));
+        assert!(!tr.is_provisional(&tr.tracks[1]), "100 m from every exit");
+
+        let far = WorldObservation {
+            pos_ne_m: Vector2::new(0.0, 100.0),
+            cov_ne_m2: Matrix2::identity() * 0.25,
+        };
+        tr.tracks[0].world = Some(WorldFilter::initiate(&far, 14.0));
+        tr.flag_provisional();
+        assert!(
+            tr.is_provisional(&tr.tracks[0]),
+            "the entry left the gate, the flag holds"
+        );
+
+        tr.tracks[0].reid_decided = true;
+        assert!(
+            !tr.is_provisional(&tr.tracks[0]),
+            "decided: no longer provisional"
+        );
     }
 
     /// A young track beside a swimmer's exit, not yet due for its decision, is reported
@@ -1112,6 +1165,7 @@ mod tests {
 
         let mut merges = Vec::new();
         tr.online_reid(1000, false, &mut merges);
+        tr.flag_provisional();
         assert!(merges.is_empty(), "not due yet: {merges:?}");
         assert!(!tr.tracks[0].reid_decided);
         let out = tr.tracks[0].output(
@@ -1128,6 +1182,7 @@ mod tests {
         let last_call = w + u64::from(TrackerParams::default().reid.defer_max_frames);
         tr.tracks[0].start_frame = 1000 - last_call;
         tr.online_reid(1000, false, &mut merges);
+        tr.flag_provisional();
         assert_eq!(merges.len(), 1);
         assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 1));
         assert_eq!(tr.tracks[0].provisional_link, None);
