@@ -82,8 +82,10 @@ pub struct TrackOutput {
     pub detection_index: Option<usize>,
     /// The track is new and may still turn out to be a track the memory bank holds: its
     /// ReID decision is pending (it has lived fewer than `reid.window_frames` frames, or its
-    /// best link is contested and it waits, see `reid.defer_margin_chi2`) and some ended track of its class is within the ReID gate. Its id may still change to
-    /// the old one; an operator display should not show it as a new object yet.
+    /// best link is contested and it waits, see `reid.defer_margin_chi2`) and some ended
+    /// track of its class is, or was at some frame since it started, within the ReID gate
+    /// (once set, the flag holds until the decision). Its id may still change to the old
+    /// one; an operator display should not show it as a new object yet.
     #[serde(default)]
     pub provisional: bool,
 }
