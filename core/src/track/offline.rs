@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::appearance::{Appearance, AppearanceMean};
 use super::bbox::BBox;
+use super::drift::SeaDrift;
 use super::online::{add_vote, majority_class, track_end, Tracker};
 use super::params::ReidParams;
 use super::params::TrackerParams;
@@ -127,6 +128,8 @@ pub fn track_sequence(
         let mut entry_ids = Vec::new();
         // First world observation of every tracklet (index shared with exits and entries).
         let mut firsts = Vec::new();
+        // Detections of every tracklet (index shared with exits and entries).
+        let mut detections = Vec::new();
         for (&id, points) in &tracklets {
             let class_id = tracklet_class(points);
             let worlds: Vec<(usize, WorldState)> = points
@@ -168,6 +171,7 @@ pub fn track_sequence(
                 pos_ne_m: first.pos_ne_m,
             });
             entry_ids.push(id);
+            detections.push(points.iter().filter(|p| !p.interpolated).count());
             spans.push((
                 points.first().map_or(0, |p| p.pos),
                 points.last().map_or(0, |p| p.pos),
@@ -200,6 +204,17 @@ pub fn track_sequence(
                 c.own_motion_s = f64::INFINITY;
             }
             links = associate_exits_to_entries_where(&exits, &entries, &chain_reid, drift, allowed);
+        }
+        if params.offline.weak_class_max_detections > 0 {
+            let weak = params.offline.weak_class_max_detections as usize;
+            let weak = |i: usize| detections[i] <= weak;
+            let ends = TrackletEnds {
+                ids: &exit_ids,
+                exits: &exits,
+                entries: &entries,
+                spans: &spans,
+            };
+            link_weak_class_orphans(&ends, weak, &mut links, &reid, drift);
         }
         for &(i, j) in &links {
             tracing::debug!(
@@ -270,6 +285,77 @@ pub fn track_sequence(
         frames: out_frames,
         relabelled,
     })
+}
+
+/// The ends of the tracklets (one exit, entry, frame-position span and id per tracklet).
+#[derive(Clone, Copy)]
+struct TrackletEnds<'a> {
+    ids: &'a [u64],
+    exits: &'a [TrackEnd],
+    entries: &'a [TrackEnd],
+    spans: &'a [(usize, usize)],
+}
+
+/// Orphans of uncertain class (`offline.weak_class_max_detections`): a tracklet linked to
+/// nothing whose class rests on `weak(i)` detections or fewer may be of another class whose
+/// ReID thresholds are the same as its own (a swimmer's lone detection classed as a
+/// life-saving appliance). It is offered, as that class, to the chains' free ends: as the
+/// exit before a tracklet that has no predecessor, or the entry after one that has no
+/// successor, each pair under the usual gate and timing. Classes are tried in ascending id
+/// order; the first link found is kept.
+fn link_weak_class_orphans(
+    ends: &TrackletEnds<'_>,
+    weak: impl Fn(usize) -> bool,
+    links: &mut Vec<(usize, usize)>,
+    reid: &ReidParams,
+    drift: &SeaDrift,
+) {
+    let TrackletEnds {
+        ids,
+        exits,
+        entries,
+        spans,
+    } = *ends;
+    let n = exits.len();
+    let mut has_predecessor = vec![false; n];
+    let mut has_successor = vec![false; n];
+    for &(i, j) in links.iter() {
+        has_successor[i] = true;
+        has_predecessor[j] = true;
+    }
+    for o in 0..n {
+        if has_predecessor[o] || has_successor[o] || !weak(o) {
+            continue;
+        }
+        let own = exits[o].class_id;
+        let alternatives = reid
+            .classes
+            .keys()
+            .copied()
+            .filter(|&c| c != own && reid.class(c) == reid.class(own));
+        for class_id in alternatives {
+            let (mut ex, mut en) = (exits.to_vec(), entries.to_vec());
+            ex[o].class_id = class_id;
+            en[o].class_id = class_id;
+            let at_free_end = |i: usize, j: usize| {
+                (i == o && j != o && !has_predecessor[j] && spans[j].0 > spans[o].1)
+                    || (j == o && i != o && !has_successor[i] && spans[o].0 > spans[i].1)
+            };
+            if let Some(&(i, j)) =
+                associate_exits_to_entries_where(&ex, &en, reid, drift, at_free_end).first()
+            {
+                tracing::debug!(
+                    tracklet = ids[o],
+                    class_id,
+                    "offline ReID: an orphan linked as another class"
+                );
+                links.push((i, j));
+                has_successor[i] = true;
+                has_predecessor[j] = true;
+                break;
+            }
+        }
+    }
 }
 
 /// The ends of a second ReID pass with chain velocities: tracklet `i` has exit `exits[i]`,
@@ -432,6 +518,55 @@ mod tests {
             left_view: true,
             appearance: None,
         }
+    }
+
+    /// A one-detection tracklet classed 4 (life-saving appliance) just before a swimmer's
+    /// tracklet at the same place, and linked to nothing: offered as a swimmer (class 4 has
+    /// the swimmer's thresholds) it becomes that tracklet's predecessor; not when its class
+    /// is deemed certain, and never as a boat (other thresholds).
+    #[test]
+    fn an_orphan_of_uncertain_class_joins_a_chain_as_a_class_with_the_same_thresholds() {
+        let reid = {
+            let mut r = TrackerParams::default().reid;
+            r.gate_chi2 = 16.0;
+            r.long_gap_gate_chi2 = 16.0;
+            r
+        };
+        let glimpse = TrackEnd {
+            class_id: 4,
+            ..swimmer_end(1.0, 0.0)
+        };
+        let exits = [glimpse, swimmer_end(10.0, 0.0)];
+        let entries = [glimpse, swimmer_end(2.0, 0.5)];
+        let spans = [(30, 30), (60, 300)];
+        let ends = TrackletEnds {
+            ids: &[7, 8],
+            exits: &exits,
+            entries: &entries,
+            spans: &spans,
+        };
+        let drift = SeaDrift::default();
+        let mut links = Vec::new();
+        link_weak_class_orphans(&ends, |i| i == 0, &mut links, &reid, &drift);
+        assert_eq!(links, vec![(0, 1)]);
+
+        let mut certain = Vec::new();
+        link_weak_class_orphans(&ends, |_| false, &mut certain, &reid, &drift);
+        assert!(certain.is_empty());
+
+        let boat = TrackEnd {
+            class_id: 2,
+            ..glimpse
+        };
+        let (exits, entries) = ([boat, exits[1]], [boat, entries[1]]);
+        let ends = TrackletEnds {
+            exits: &exits,
+            entries: &entries,
+            ..ends
+        };
+        let mut as_boat = Vec::new();
+        link_weak_class_orphans(&ends, |i| i == 0, &mut as_boat, &reid, &drift);
+        assert!(as_boat.is_empty(), "a boat is not offered as a swimmer");
     }
 
     /// Tracklets 0 -> 1 -> 2 linked, 3 alone: an exit averages from its chain's first
