@@ -513,8 +513,6 @@ pub struct OfflineParams {
     /// ids per true object 1.13 -> 1.10 and `lawnmower_search` seed 90210 1.00 -> 0.97 (each
     /// one id fewer, the link right), IDF1 and HOTA unchanged; 5 changed the same two.
     pub weak_class_max_detections: u32,
-    /// EXPERIMENT weak class.
-    pub weak_class_max_votes: u32,
 }
 
 impl Default for OfflineParams {
@@ -527,7 +525,6 @@ impl Default for OfflineParams {
             chain_velocity: true,
             chain_velocity_min_s: 30.0,
             weak_class_max_detections: 2,
-            weak_class_max_votes: 0,
         }
     }
 }
