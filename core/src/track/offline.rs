@@ -327,6 +327,14 @@ fn link_weak_class_orphans(
         if has_predecessor[o] || has_successor[o] || !weak(o) {
             continue;
         }
+        // The orphan and the free ends it could join, in index order: the only pairs that
+        // may link (exit before it with no successor, entry after it with no predecessor).
+        let free_exits: Vec<usize> = (0..n)
+            .filter(|&i| i == o || (!has_successor[i] && spans[o].0 > spans[i].1))
+            .collect();
+        let free_entries: Vec<usize> = (0..n)
+            .filter(|&j| j == o || (!has_predecessor[j] && spans[j].0 > spans[o].1))
+            .collect();
         let own = exits[o].class_id;
         let alternatives = reid
             .classes
@@ -334,16 +342,23 @@ fn link_weak_class_orphans(
             .copied()
             .filter(|&c| c != own && reid.class(c) == reid.class(own));
         for class_id in alternatives {
-            let (mut ex, mut en) = (exits.to_vec(), entries.to_vec());
-            ex[o].class_id = class_id;
-            en[o].class_id = class_id;
-            let at_free_end = |i: usize, j: usize| {
-                (i == o && j != o && !has_predecessor[j] && spans[j].0 > spans[o].1)
-                    || (j == o && i != o && !has_successor[i] && spans[o].0 > spans[i].1)
+            let as_class = |k: usize, end: &TrackEnd| {
+                let mut e = *end;
+                if k == o {
+                    e.class_id = class_id;
+                }
+                e
             };
-            if let Some(&(i, j)) =
-                associate_exits_to_entries_where(&ex, &en, reid, drift, at_free_end).first()
+            let ex: Vec<TrackEnd> = free_exits.iter().map(|&i| as_class(i, &exits[i])).collect();
+            let en: Vec<TrackEnd> = free_entries
+                .iter()
+                .map(|&j| as_class(j, &entries[j]))
+                .collect();
+            let with_orphan = |a: usize, b: usize| (free_exits[a] == o) != (free_entries[b] == o);
+            if let Some(&(a, b)) =
+                associate_exits_to_entries_where(&ex, &en, reid, drift, with_orphan).first()
             {
+                let (i, j) = (free_exits[a], free_entries[b]);
                 tracing::debug!(
                     tracklet = ids[o],
                     class_id,

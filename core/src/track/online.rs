@@ -74,6 +74,13 @@ struct ProvisionalLink {
 }
 
 impl Track {
+    /// Whether the track is reported provisional (see [`TrackOutput::provisional`]):
+    /// undecided and flagged by [`Tracker::flag_provisional`] (which flags nothing with ReID
+    /// off).
+    fn is_provisional(&self) -> bool {
+        !self.reid_decided && self.flagged_provisional
+    }
+
     fn class_id(&self) -> u32 {
         majority_class(&self.class_votes)
     }
@@ -317,7 +324,7 @@ impl Tracker {
             .filter(|t| t.phase == Phase::Tracked && t.activated)
             .map(|t| {
                 let world = t.world.as_ref().map(|w| *w.state());
-                t.output(TrackState::Confirmed, world, self.is_provisional(t))
+                t.output(TrackState::Confirmed, world, t.is_provisional())
             })
             .collect();
         // A coasting track whose provisional link went stale (its old id was since taken by a
@@ -360,15 +367,9 @@ impl Tracker {
                     && b.y + b.h <= f64::from(h);
                 inside.then(|| {
                     let world = t.world.as_ref().map(|wf| wf.predicted(input.time_s, accel));
-                    t.output(TrackState::Lost, world, self.is_provisional(t))
+                    t.output(TrackState::Lost, world, t.is_provisional())
                 })
             })
-    }
-
-    /// Whether a reported track is provisional (see [`TrackOutput::provisional`]): undecided
-    /// and flagged by [`Self::flag_provisional`].
-    fn is_provisional(&self, t: &Track) -> bool {
-        self.params.reid.enabled && !t.reid_decided && t.flagged_provisional
     }
 
     /// Flags the undecided tracks that may still be linked to an old one: a track is flagged
@@ -1094,7 +1095,7 @@ mod tests {
         tr.flag_provisional();
         assert!(merges.is_empty(), "contested: no decision yet, {merges:?}");
         assert!(!tr.tracks[0].reid_decided);
-        assert!(tr.is_provisional(&tr.tracks[0]));
+        assert!(tr.tracks[0].is_provisional());
         assert_eq!(tr.memory.len(), 2);
 
         // The group-mate comes back at 11 m: the next call decides the waiting track, and
@@ -1122,8 +1123,8 @@ mod tests {
         let w = u64::from(TrackerParams::default().reid.window_frames);
         let mut tr = two_exits_and_entries(&[0.5, 100.0], &[w / 2, w / 2]);
         tr.flag_provisional();
-        assert!(tr.is_provisional(&tr.tracks[0]));
-        assert!(!tr.is_provisional(&tr.tracks[1]), "100 m from every exit");
+        assert!(tr.tracks[0].is_provisional());
+        assert!(!tr.tracks[1].is_provisional(), "100 m from every exit");
 
         let far = WorldObservation {
             pos_ne_m: Vector2::new(0.0, 100.0),
@@ -1132,13 +1133,13 @@ mod tests {
         tr.tracks[0].world = Some(WorldFilter::initiate(&far, 14.0));
         tr.flag_provisional();
         assert!(
-            tr.is_provisional(&tr.tracks[0]),
+            tr.tracks[0].is_provisional(),
             "the entry left the gate, the flag holds"
         );
 
         tr.tracks[0].reid_decided = true;
         assert!(
-            !tr.is_provisional(&tr.tracks[0]),
+            !tr.tracks[0].is_provisional(),
             "decided: no longer provisional"
         );
     }
@@ -1168,11 +1169,7 @@ mod tests {
         tr.flag_provisional();
         assert!(merges.is_empty(), "not due yet: {merges:?}");
         assert!(!tr.tracks[0].reid_decided);
-        let out = tr.tracks[0].output(
-            TrackState::Confirmed,
-            None,
-            tr.is_provisional(&tr.tracks[0]),
-        );
+        let out = tr.tracks[0].output(TrackState::Confirmed, None, tr.tracks[0].is_provisional());
         assert_eq!((out.id, out.provisional), (1, true));
         assert_eq!(tr.coasting(&input).count(), 0, "the old track gives way");
 
@@ -1186,11 +1183,7 @@ mod tests {
         assert_eq!(merges.len(), 1);
         assert_eq!((merges[0].new_id, merges[0].merged_into_id), (10, 1));
         assert_eq!(tr.tracks[0].provisional_link, None);
-        let out = tr.tracks[0].output(
-            TrackState::Confirmed,
-            None,
-            tr.is_provisional(&tr.tracks[0]),
-        );
+        let out = tr.tracks[0].output(TrackState::Confirmed, None, tr.tracks[0].is_provisional());
         assert_eq!((out.id, out.provisional), (1, false));
 
         let mut params = TrackerParams::default();
