@@ -22,6 +22,7 @@
 pub mod appearance;
 mod assign;
 mod bbox;
+mod contact;
 pub mod drift;
 mod kalman;
 mod nms;
@@ -34,6 +35,7 @@ mod world;
 
 pub use appearance::{Appearance, RgbImage};
 pub use bbox::BBox;
+pub use contact::ContactParams;
 pub use drift::{DriftEstimate, DriftParams, SeaDrift};
 pub use kalman::BoxKalman;
 pub use nms::nms_prefer_larger;

@@ -6,6 +6,7 @@ use nalgebra::{Matrix2, Vector2};
 use super::appearance::AppearanceMean;
 use super::assign::{apply_gate, solve_gated};
 use super::bbox::BBox;
+use super::contact::{is_clean, ContactIdentity, ContactObject, SwapEvidence};
 use super::drift::SeaDrift;
 use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
@@ -62,6 +63,10 @@ struct Track {
     flagged_provisional: bool,
     /// Mean colour signature of the matched detections that had one.
     appearance: AppearanceMean,
+    /// Contact repair: what this identity looked like before its contact.
+    contact: ContactIdentity,
+    /// Contact repair: what the followed object looked like since its last contact.
+    object: ContactObject,
 }
 
 /// The old track an undecided track is reported as while its decision is pending.
@@ -74,6 +79,22 @@ struct ProvisionalLink {
 }
 
 impl Track {
+    /// Exchanges the objects two tracks follow (contact repair): the box and world filters,
+    /// the life cycle and the last detection go with the object; the identity (ids, class
+    /// votes, start, ReID state, appearance mean, contact anchor) stays.
+    fn exchange_objects(&mut self, other: &mut Track) {
+        std::mem::swap(&mut self.kf, &mut other.kf);
+        std::mem::swap(&mut self.world, &mut other.world);
+        std::mem::swap(&mut self.phase, &mut other.phase);
+        std::mem::swap(&mut self.activated, &mut other.activated);
+        std::mem::swap(&mut self.score, &mut other.score);
+        std::mem::swap(&mut self.end_frame, &mut other.end_frame);
+        std::mem::swap(&mut self.last_bbox, &mut other.last_bbox);
+        std::mem::swap(&mut self.last_image_size_px, &mut other.last_image_size_px);
+        std::mem::swap(&mut self.matched_det, &mut other.matched_det);
+        std::mem::swap(&mut self.object, &mut other.object);
+    }
+
     /// Whether the track is reported provisional (see [`TrackOutput::provisional`]):
     /// undecided and flagged by [`Tracker::flag_provisional`] (which flags nothing with ReID
     /// off).
@@ -195,6 +216,12 @@ struct Scratch {
     cost: Vec<f64>,
     pairs: Vec<(usize, usize)>,
     track_matched: Vec<bool>,
+    /// Majority class per row of an IoU stage.
+    classes: Vec<u32>,
+    /// Contact repair: the tracked tracks, their boxes this frame, whether each is in contact.
+    live: Vec<usize>,
+    live_boxes: Vec<BBox>,
+    in_contact: Vec<bool>,
 }
 
 /// The online tracker: feed it frames in order with [`Tracker::step`].
@@ -308,6 +335,9 @@ impl Tracker {
         self.select_detections(&input.detections);
         self.predict_and_compensate(dt_frames, input);
         self.associate(input);
+        if self.params.contact.enabled {
+            self.repair_contacts(input);
+        }
         self.expire(input);
         self.observe_drift(input.time_s);
 
@@ -408,6 +438,151 @@ impl Tracker {
         }
         self.tracks.retain(|t| t.phase != Phase::Removed);
         merges
+    }
+
+    /// Contact repair (see [`super::contact`]): contacts between this frame's tracked boxes
+    /// join their identities in a group; clean detections feed the identity's signature
+    /// (outside a group) or the followed object's (inside); a track in a group with enough
+    /// clean detections since its last contact is decided, exchanging objects with the
+    /// group member whose anchor its colours fit, if the colours say so.
+    fn repair_contacts(&mut self, input: &FrameInput) {
+        let cp = self.params.contact.clone();
+        let dets = &input.detections;
+        let mut live = std::mem::take(&mut self.scratch.live);
+        let mut boxes = std::mem::take(&mut self.scratch.live_boxes);
+        let mut in_contact = std::mem::take(&mut self.scratch.in_contact);
+        live.clear();
+        live.extend(
+            (0..self.tracks.len())
+                .filter(|&i| self.tracks[i].phase == Phase::Tracked && self.tracks[i].activated),
+        );
+        boxes.clear();
+        boxes.extend(live.iter().map(|&i| {
+            let t = &self.tracks[i];
+            t.matched_det.map_or_else(|| t.kf.bbox(), |j| dets[j].bbox)
+        }));
+        in_contact.clear();
+        in_contact.resize(live.len(), false);
+
+        for a in 0..live.len() {
+            for b in a + 1..live.len() {
+                if boxes[a].iou(&boxes[b]) < cp.contact_iou {
+                    continue;
+                }
+                in_contact[a] = true;
+                in_contact[b] = true;
+                let (ia, ib) = (live[a], live[b]);
+                let mut touch = |i: usize| {
+                    let t = &mut self.tracks[i];
+                    t.contact.touch(t.uid, cp.anchor_min_count)
+                };
+                let (ga, gb) = (touch(ia), touch(ib));
+                if ga != gb {
+                    for t in &mut self.tracks {
+                        t.contact.regroup(gb, ga);
+                    }
+                }
+            }
+        }
+
+        for (k, &i) in live.iter().enumerate() {
+            if in_contact[k] {
+                self.tracks[i].object.reset();
+                continue;
+            }
+            let Some(j) = self.tracks[i].matched_det else {
+                continue;
+            };
+            let Some(sig) = dets[j].appearance.as_ref() else {
+                continue;
+            };
+            let db = &dets[j].bbox;
+            let other_dets = self
+                .scratch
+                .candidates
+                .iter()
+                .filter(|&&o| o != j)
+                .map(|&o| &dets[o].bbox);
+            let other_tracks = boxes
+                .iter()
+                .enumerate()
+                .filter(|&(q, _)| q != k)
+                .map(|(_, b)| b);
+            if !is_clean(db, other_dets.chain(other_tracks), cp.clean_iou) {
+                continue;
+            }
+            let t = &mut self.tracks[i];
+            if t.contact.group().is_none() {
+                t.contact.add_clean(sig);
+            } else {
+                t.object.add(sig);
+            }
+        }
+
+        let reid_on = self.params.reid.enabled;
+        for &i in &live {
+            let Some(group) = self.tracks[i].contact.group() else {
+                continue;
+            };
+            let Some(post) = self.tracks[i].object.post(cp.post_count) else {
+                continue;
+            };
+            // A young track's world filter is its ReID entry: it exchanges nothing before
+            // its decision.
+            let settled = |t: &Track| !reid_on || t.reid_decided;
+            let own = &self.tracks[i];
+            let member = settled(own)
+                .then(|| {
+                    live.iter()
+                        .copied()
+                        .filter(|&q| q != i)
+                        .filter(|&q| {
+                            let m = &self.tracks[q];
+                            m.phase == Phase::Tracked
+                                && m.contact.group() == Some(group)
+                                && settled(m)
+                        })
+                        .filter_map(|q| {
+                            let m = &self.tracks[q];
+                            let e = SwapEvidence::new(
+                                own.contact.anchor(),
+                                &post,
+                                m.contact.anchor(),
+                                m.object.post(cp.partner_min_count).as_ref(),
+                            )?;
+                            Some((q, e))
+                        })
+                        .min_by(|x, y| x.1.crossed.total_cmp(&y.1.crossed))
+                })
+                .flatten()
+                .filter(|(_, e)| e.favours_exchange(cp.margin));
+            let decided = match member {
+                Some((q, e)) => {
+                    tracing::debug!(
+                        frame = input.frame_index,
+                        id = self.tracks[i].id,
+                        member_id = self.tracks[q].id,
+                        own = e.own,
+                        crossed = e.crossed,
+                        member = ?e.member,
+                        "contact repair: objects exchanged"
+                    );
+                    let (lo, hi) = (i.min(q), i.max(q));
+                    let (head, tail) = self.tracks.split_at_mut(hi);
+                    head[lo].exchange_objects(&mut tail[0]);
+                    // The member now follows the object whose colours were judged.
+                    q
+                }
+                None => i,
+            };
+            let t = &mut self.tracks[decided];
+            let post = t.object.take();
+            t.contact.decide(post);
+        }
+
+        self.scratch.live = live;
+        self.scratch.live_boxes = boxes;
+        self.scratch.in_contact = in_contact;
     }
 
     /// Valid detections above the low threshold, NMS, split into high and low confidence.
@@ -541,6 +716,8 @@ impl Tracker {
                 flagged_provisional: false,
                 matched_det: Some(j),
                 appearance: AppearanceMean::default(),
+                contact: ContactIdentity::default(),
+                object: ContactObject::default(),
             };
             add_vote(&mut t.class_votes, dets[j].class_id);
             if let Some(a) = &dets[j].appearance {
@@ -576,9 +753,14 @@ impl Tracker {
         if rows.is_empty() || cols_free == 0 {
             return;
         }
+        let mismatch = self.params.baseline.class_mismatch_cost;
         let s = &mut self.scratch;
+        s.classes.clear();
+        s.classes
+            .extend(rows.iter().map(|&i| self.tracks[i].class_id()));
+        let classes = &s.classes;
         s.cost.clear();
-        for &i in rows {
+        for (r, &i) in rows.iter().enumerate() {
             let tb = self.tracks[i].kf.bbox();
             for &j in cols {
                 if s.det_used[j] {
@@ -589,7 +771,12 @@ impl Tracker {
                 if fuse_score {
                     sim *= f64::from(dets[j].score);
                 }
-                s.cost.push(1.0 - sim);
+                let class_cost = if dets[j].class_id == classes[r] {
+                    0.0
+                } else {
+                    mismatch
+                };
+                s.cost.push(1.0 - sim + class_cost);
             }
         }
         apply_gate(&mut s.cost, gate);
@@ -1045,6 +1232,8 @@ mod tests {
                 flagged_provisional: false,
                 matched_det: None,
                 appearance: AppearanceMean::default(),
+                contact: ContactIdentity::default(),
+                object: ContactObject::default(),
             });
         }
         tr
@@ -1343,6 +1532,81 @@ mod tests {
     /// A still swimmer at (200, 200) for frames 1-5, then the camera pans: frame 6 has the
     /// homography of a 60 px shift to the right and the swimmer's box there. Returns the
     /// ids reported in frames 5 and 6.
+    /// Two swimmers whose colour signatures peak in hue bins `colours` swim towards each other
+    /// at 3 px a frame, meet at frame 30 and turn back the way they came. The box filter
+    /// carries each track on through the meeting, so each id ends on the other swimmer.
+    /// Returns, per frame, the reported id nearest the left swimmer and the right one, and
+    /// the ids of the first and second swimmer at frame 5.
+    fn meet_and_turn_back(
+        params: TrackerParams,
+        colours: (usize, usize),
+    ) -> (Vec<(u64, u64)>, (u64, u64)) {
+        use crate::track::appearance::{Appearance, BINS};
+        let sig = |bin: usize| {
+            let mut bins = [0.0; BINS];
+            bins[bin] = 1.0;
+            Appearance { bins }
+        };
+        let (red, blue) = (sig(colours.0), sig(colours.1));
+        let mut tr = Tracker::new(params).unwrap();
+        let mut ids = Vec::new();
+        let mut first = (0, 0);
+        for i in 1..=70u64 {
+            let d = 3.0 * (30.0 - (i as f64 - 30.0).abs());
+            let (xr, xb) = (40.0 + d, 220.0 - d);
+            let mut f = frame(i, &[(xr, 100.0), (xb, 100.0)]);
+            f.detections[0].appearance = Some(red);
+            f.detections[1].appearance = Some(blue);
+            let out = tr.step(&f).unwrap();
+            let by_x = |x: f64| {
+                out.tracks
+                    .iter()
+                    .min_by(|a, b| {
+                        let da = (a.bbox.center().0 - x).abs();
+                        da.total_cmp(&(b.bbox.center().0 - x).abs())
+                    })
+                    .map_or(0, |t| t.id)
+            };
+            if i == 5 {
+                first = (by_x(xr), by_x(xb));
+            }
+            ids.push((by_x(xr.min(xb)), by_x(xr.max(xb))));
+        }
+        (ids, first)
+    }
+
+    #[test]
+    fn a_swap_in_contact_is_repaired_by_the_colours_once_the_two_part() {
+        let mut off = TrackerParams::default();
+        off.contact.enabled = false;
+        let (ids, (red, blue)) = meet_and_turn_back(off, (0, 8));
+        assert_ne!(red, blue);
+        // Without the repair the ids swap at the meeting and stay swapped.
+        assert_eq!(ids[20], (red, blue));
+        assert_eq!(ids[69], (blue, red));
+
+        let (ids, (red2, blue2)) = meet_and_turn_back(TrackerParams::default(), (0, 8));
+        assert_eq!((red2, blue2), (red, blue));
+        assert_eq!(ids[20], (red, blue));
+        // Swapped right after the meeting (the boxes still overlap, nothing to judge by) ...
+        assert_eq!(ids[35], (blue, red));
+        // ... and back from the tenth clean detection after the contact on.
+        let repaired = ids.iter().rposition(|&p| p == (blue, red)).unwrap() + 1;
+        assert!(
+            (40..55).contains(&repaired),
+            "repaired at index {repaired}: {ids:?}"
+        );
+        assert!(ids[repaired..].iter().all(|&p| p == (red, blue)), "{ids:?}");
+    }
+
+    #[test]
+    fn swimmers_of_one_colour_are_not_exchanged() {
+        let (ids, (a, b)) = meet_and_turn_back(TrackerParams::default(), (3, 3));
+        assert_ne!(a, b);
+        assert_eq!(ids[20], (a, b));
+        assert_eq!(ids[69], (b, a));
+    }
+
     fn pan_by_60(params: TrackerParams) -> (Vec<u64>, Vec<u64>) {
         let mut tr = Tracker::new(params).unwrap();
         let mut before = Vec::new();
