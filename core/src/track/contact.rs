@@ -198,13 +198,38 @@ impl SwapEvidence {
     }
 }
 
-/// Whether `b` overlaps none of `others` at `clean_iou` or more.
-pub(crate) fn is_clean<'a>(
-    b: &BBox,
-    others: impl IntoIterator<Item = &'a BBox>,
-    clean_iou: f64,
-) -> bool {
-    others.into_iter().all(|o| b.iou(o) < clean_iou)
+/// Overlaps among `boxes`: each box's largest IoU with any other (`max_iou`, 0 when none
+/// overlaps it) and the pairs `(a, b)`, `a < b`, at `pair_iou` or more (`pairs`). A sweep
+/// over the boxes sorted by their left edge (`order`, a reused buffer) compares only boxes
+/// that overlap horizontally: a frame's boxes are small against the image, so this is
+/// about linear where all pairs would be quadratic.
+pub(crate) fn overlaps(
+    boxes: &[BBox],
+    pair_iou: f64,
+    order: &mut Vec<usize>,
+    max_iou: &mut Vec<f64>,
+    pairs: &mut Vec<(usize, usize)>,
+) {
+    order.clear();
+    order.extend(0..boxes.len());
+    order.sort_unstable_by(|&a, &b| boxes[a].x.total_cmp(&boxes[b].x));
+    max_iou.clear();
+    max_iou.resize(boxes.len(), 0.0);
+    pairs.clear();
+    for (k, &a) in order.iter().enumerate() {
+        let right = boxes[a].x + boxes[a].w;
+        for &b in &order[k + 1..] {
+            if boxes[b].x >= right {
+                break;
+            }
+            let iou = boxes[a].iou(&boxes[b]);
+            max_iou[a] = max_iou[a].max(iou);
+            max_iou[b] = max_iou[b].max(iou);
+            if iou >= pair_iou {
+                pairs.push((a.min(b), a.max(b)));
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -293,12 +318,45 @@ mod tests {
     }
 
     #[test]
-    fn clean_means_no_overlap_at_the_threshold() {
-        let b = BBox::from_center(10.0, 10.0, 10.0, 10.0);
-        let far = BBox::from_center(40.0, 10.0, 10.0, 10.0);
-        let touching = BBox::from_center(18.0, 10.0, 10.0, 10.0); // IoU 2/18
-        assert!(is_clean(&b, [&far], 0.1));
-        assert!(!is_clean(&b, [&far, &touching], 0.1));
-        assert!(is_clean(&b, [&touching], 0.2));
+    fn overlaps_of_a_few_boxes() {
+        let boxes = [
+            BBox::from_center(10.0, 10.0, 10.0, 10.0),
+            BBox::from_center(40.0, 10.0, 10.0, 10.0),
+            BBox::from_center(18.0, 10.0, 10.0, 10.0), // IoU 2/18 with the first
+            BBox::from_center(11.0, 10.0, 10.0, 10.0), // IoU 9/11 with the first
+        ];
+        let (mut order, mut max_iou, mut pairs) = (Vec::new(), Vec::new(), Vec::new());
+        overlaps(&boxes, 0.5, &mut order, &mut max_iou, &mut pairs);
+        assert_eq!(pairs, vec![(0, 3)]);
+        assert!((max_iou[0] - 9.0 / 11.0).abs() < 1e-12);
+        assert_eq!(max_iou[1], 0.0);
+        assert!((max_iou[2] - boxes[2].iou(&boxes[3])).abs() < 1e-12);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_sweep_finds_what_all_pairs_find(
+            raw in proptest::collection::vec((0.0..200.0f64, 0.0..100.0f64, 1.0..40.0f64, 1.0..40.0f64), 0..40),
+            pair_iou in 0.05..0.9f64,
+        ) {
+            let boxes: Vec<BBox> = raw.iter().map(|&(x, y, w, h)| BBox::new(x, y, w, h)).collect();
+            let (mut order, mut max_iou, mut pairs) = (Vec::new(), Vec::new(), Vec::new());
+            overlaps(&boxes, pair_iou, &mut order, &mut max_iou, &mut pairs);
+            pairs.sort_unstable();
+            let mut want = Vec::new();
+            for a in 0..boxes.len() {
+                let best = (0..boxes.len())
+                    .filter(|&b| b != a)
+                    .map(|b| boxes[a].iou(&boxes[b]))
+                    .fold(0.0f64, f64::max);
+                proptest::prop_assert!((max_iou[a] - best).abs() < 1e-12);
+                for b in a + 1..boxes.len() {
+                    if boxes[a].iou(&boxes[b]) >= pair_iou {
+                        want.push((a, b));
+                    }
+                }
+            }
+            proptest::prop_assert_eq!(pairs, want);
+        }
     }
 }

@@ -6,7 +6,7 @@ use nalgebra::{Matrix2, Vector2};
 use super::appearance::AppearanceMean;
 use super::assign::{apply_gate, solve_gated};
 use super::bbox::BBox;
-use super::contact::{is_clean, ContactIdentity, ContactObject, SwapEvidence};
+use super::contact::{overlaps, ContactIdentity, ContactObject, SwapEvidence};
 use super::drift::SeaDrift;
 use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
@@ -218,9 +218,16 @@ struct Scratch {
     track_matched: Vec<bool>,
     /// Majority class per row of an IoU stage.
     classes: Vec<u32>,
-    /// Contact repair: the tracked tracks, their boxes this frame, whether each is in contact.
-    live: Vec<usize>,
+    /// Contact repair: the boxes of the frame's candidate detections, their order by left
+    /// edge, each one's largest IoU with another, the pairs in contact, the tracked track of
+    /// each (`usize::MAX`: none), each detection's candidate position, whether each track is
+    /// in contact.
     live_boxes: Vec<BBox>,
+    order: Vec<usize>,
+    max_iou: Vec<f64>,
+    contact_pairs: Vec<(usize, usize)>,
+    live: Vec<usize>,
+    det_pos: Vec<usize>,
     in_contact: Vec<bool>,
 }
 
@@ -448,76 +455,82 @@ impl Tracker {
     fn repair_contacts(&mut self, input: &FrameInput) {
         let cp = self.params.contact.clone();
         let dets = &input.detections;
-        let mut live = std::mem::take(&mut self.scratch.live);
-        let mut boxes = std::mem::take(&mut self.scratch.live_boxes);
-        let mut in_contact = std::mem::take(&mut self.scratch.in_contact);
-        live.clear();
-        live.extend(
-            (0..self.tracks.len())
-                .filter(|&i| self.tracks[i].phase == Phase::Tracked && self.tracks[i].activated),
+        let s = &mut self.scratch;
+        // Every tracked track was matched in this frame (the unmatched ones are lost), so the
+        // tracked boxes are detection boxes: one sweep over the frame's detections finds both
+        // the contacts and the clean detections.
+        s.live_boxes.clear();
+        s.live_boxes
+            .extend(s.candidates.iter().map(|&j| dets[j].bbox));
+        overlaps(
+            &s.live_boxes,
+            cp.contact_iou,
+            &mut s.order,
+            &mut s.max_iou,
+            &mut s.contact_pairs,
         );
-        boxes.clear();
-        boxes.extend(live.iter().map(|&i| {
-            let t = &self.tracks[i];
-            t.matched_det.map_or_else(|| t.kf.bbox(), |j| dets[j].bbox)
-        }));
-        in_contact.clear();
-        in_contact.resize(live.len(), false);
-
-        for a in 0..live.len() {
-            for b in a + 1..live.len() {
-                if boxes[a].iou(&boxes[b]) < cp.contact_iou {
-                    continue;
-                }
-                in_contact[a] = true;
-                in_contact[b] = true;
-                let (ia, ib) = (live[a], live[b]);
-                let mut touch = |i: usize| {
-                    let t = &mut self.tracks[i];
-                    t.contact.touch(t.uid, cp.anchor_min_count)
-                };
-                let (ga, gb) = (touch(ia), touch(ib));
-                if ga != gb {
-                    for t in &mut self.tracks {
-                        t.contact.regroup(gb, ga);
-                    }
+        // Candidate position -> tracked track.
+        s.live.clear();
+        s.live.resize(s.candidates.len(), usize::MAX);
+        s.det_pos.clear();
+        s.det_pos.resize(dets.len(), usize::MAX);
+        for (p, &j) in s.candidates.iter().enumerate() {
+            s.det_pos[j] = p;
+        }
+        for (i, t) in self.tracks.iter().enumerate() {
+            if t.phase == Phase::Tracked && t.activated {
+                if let Some(p) = t
+                    .matched_det
+                    .map(|j| s.det_pos[j])
+                    .filter(|&p| p != usize::MAX)
+                {
+                    s.live[p] = i;
                 }
             }
         }
-
-        for (k, &i) in live.iter().enumerate() {
-            if in_contact[k] {
-                self.tracks[i].object.reset();
+        s.in_contact.clear();
+        s.in_contact.resize(self.tracks.len(), false);
+        for &(a, b) in &s.contact_pairs {
+            let (ia, ib) = (s.live[a], s.live[b]);
+            if ia == usize::MAX || ib == usize::MAX {
                 continue;
             }
-            let Some(j) = self.tracks[i].matched_det else {
-                continue;
+            s.in_contact[ia] = true;
+            s.in_contact[ib] = true;
+            let mut touch = |i: usize| {
+                let t = &mut self.tracks[i];
+                t.contact.touch(t.uid, cp.anchor_min_count)
             };
-            let Some(sig) = dets[j].appearance.as_ref() else {
-                continue;
-            };
-            let db = &dets[j].bbox;
-            let other_dets = self
-                .scratch
-                .candidates
-                .iter()
-                .filter(|&&o| o != j)
-                .map(|&o| &dets[o].bbox);
-            let other_tracks = boxes
-                .iter()
-                .enumerate()
-                .filter(|&(q, _)| q != k)
-                .map(|(_, b)| b);
-            if !is_clean(db, other_dets.chain(other_tracks), cp.clean_iou) {
+            let (ga, gb) = (touch(ia), touch(ib));
+            if ga != gb {
+                for t in &mut self.tracks {
+                    t.contact.regroup(gb, ga);
+                }
+            }
+        }
+        for (p, &i) in s.live.iter().enumerate() {
+            if i == usize::MAX {
                 continue;
             }
             let t = &mut self.tracks[i];
+            if s.in_contact[i] {
+                t.object.reset();
+                continue;
+            }
+            let Some(sig) = dets[s.candidates[p]].appearance.as_ref() else {
+                continue;
+            };
+            if s.max_iou[p] >= cp.clean_iou {
+                continue;
+            }
             if t.contact.group().is_none() {
                 t.contact.add_clean(sig);
             } else {
                 t.object.add(sig);
             }
         }
+        let mut live = std::mem::take(&mut s.live);
+        live.retain(|&i| i != usize::MAX);
 
         let reid_on = self.params.reid.enabled;
         for &i in &live {
@@ -581,8 +594,6 @@ impl Tracker {
         }
 
         self.scratch.live = live;
-        self.scratch.live_boxes = boxes;
-        self.scratch.in_contact = in_contact;
     }
 
     /// Valid detections above the low threshold, NMS, split into high and low confidence.
