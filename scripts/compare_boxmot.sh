@@ -61,7 +61,9 @@ for sc in $scenarios; do
       frames=("$dir/render/img1"); touch "$dir/with_frames"
     fi
     echo "[$n/$total] $sc seed $seed: track" >&2
-    "$bin/mgmot-sim" detections --scenario "$sc" "${seed_flag[@]}" --out "$dir/det.txt" --gt-dir "$dir/gt" >/dev/null 2>&1
+    # With colour signatures, as scripts/bench_tracking.sh simulates them (mgmot uses them;
+    # BoxMOT reads the boxes only, which are the same with or without).
+    "$bin/mgmot-sim" detections --scenario "$sc" "${seed_flag[@]}" --appearance --out "$dir/det.txt" --gt-dir "$dir/gt" >/dev/null 2>&1
     gt="$dir/gt/gt/gt.txt"
     for run in online online_withheld offline; do
       case $run in
