@@ -222,7 +222,7 @@ struct Scratch {
     /// edge, each one's largest IoU with another, the pairs in contact, the tracked track of
     /// each (`usize::MAX`: none), each detection's candidate position, whether each track is
     /// in contact.
-    live_boxes: Vec<BBox>,
+    candidate_boxes: Vec<BBox>,
     order: Vec<usize>,
     max_iou: Vec<f64>,
     contact_pairs: Vec<(usize, usize)>,
@@ -459,11 +459,11 @@ impl Tracker {
         // Every tracked track was matched in this frame (the unmatched ones are lost), so the
         // tracked boxes are detection boxes: one sweep over the frame's detections finds both
         // the contacts and the clean detections.
-        s.live_boxes.clear();
-        s.live_boxes
+        s.candidate_boxes.clear();
+        s.candidate_boxes
             .extend(s.candidates.iter().map(|&j| dets[j].bbox));
         overlaps(
-            &s.live_boxes,
+            &s.candidate_boxes,
             cp.contact_iou,
             &mut s.order,
             &mut s.max_iou,
