@@ -21,8 +21,11 @@
 //! - Either way the decided identity leaves the group and starts a new clean mean from its
 //!   post signature.
 //!
-//! Online the frames between the swap and its repair keep the wrong ids (they were
-//! reported); from the repair on the ids are right. Measured: README, "Contact repair".
+//! Each repair is reported as an [`super::ExchangeEvent`] from the frame of the contact's
+//! largest overlap (where the swap most likely happened: the boxes were hardest to tell
+//! apart). Online the frames between the swap and its repair keep the wrong ids (they were
+//! reported); from the repair on the ids are right. Offline the frames since that peak are
+//! relabelled too. Measured: README, "Contact repair".
 
 use serde::{Deserialize, Serialize};
 
@@ -136,12 +139,25 @@ impl ContactIdentity {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ContactObject {
     post: AppearanceMean,
+    /// The largest IoU the object's box had with another in its contacts since its last
+    /// decision, and the frame of it: where the two tracks most likely exchanged objects.
+    peak: Option<(f64, u64)>,
 }
 
 impl ContactObject {
-    /// In contact this frame: the object's post signature starts again.
-    pub(crate) fn reset(&mut self) {
+    /// In contact in frame `frame_index`, its box overlapping another at `iou`: the
+    /// object's post signature starts again.
+    pub(crate) fn reset(&mut self, frame_index: u64, iou: f64) {
         self.post = AppearanceMean::default();
+        if self.peak.is_none_or(|(peak, _)| iou >= peak) {
+            self.peak = Some((iou, frame_index));
+        }
+    }
+
+    /// The frame of the largest overlap in the contacts since the last decision (where a
+    /// swap most likely happened: the boxes were hardest to tell apart).
+    pub(crate) fn peak_frame(&self) -> Option<u64> {
+        self.peak.map(|(_, frame)| frame)
     }
 
     /// One clean signature while in a contact group.
@@ -154,8 +170,9 @@ impl ContactObject {
         self.post.mean(min_count)
     }
 
-    /// Takes the post signature (for [`ContactIdentity::decide`]).
+    /// Takes the post signature (for [`ContactIdentity::decide`]); the contacts are over.
     pub(crate) fn take(&mut self) -> AppearanceMean {
+        self.peak = None;
         std::mem::take(&mut self.post)
     }
 }

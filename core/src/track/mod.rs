@@ -30,6 +30,8 @@ mod offline;
 mod online;
 mod params;
 pub mod reid;
+#[cfg(test)]
+mod scenes;
 mod types;
 mod world;
 
@@ -44,7 +46,9 @@ pub use online::Tracker;
 pub use params::{
     BaselineParams, ClassReidParams, LongTermGate, OfflineParams, ReidParams, TrackerParams,
 };
-pub use types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
+pub use types::{
+    Detection, ExchangeEvent, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState,
+};
 pub use world::{WorldFilter, WorldObservation, WorldState};
 
 /// Errors of the tracking core.

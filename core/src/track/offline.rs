@@ -12,7 +12,7 @@ use super::online::{add_vote, majority_class, track_end, Tracker};
 use super::params::ReidParams;
 use super::params::TrackerParams;
 use super::reid::{associate_exits_to_entries_where, with_chain_velocity, ChainPoint, TrackEnd};
-use super::types::FrameInput;
+use super::types::{ExchangeEvent, FrameInput};
 use super::world::WorldState;
 use super::TrackError;
 
@@ -96,6 +96,11 @@ pub fn track_sequence(
     let mut tracklets: BTreeMap<u64, Vec<Point>> = BTreeMap::new();
     for (pos, frame) in frames.iter().enumerate() {
         let out = tracker.step(frame)?;
+        // A contact repair exchanged two tracks' objects in this frame: the frames since
+        // their contact, already in the tracklets, go back to the ids they belong to.
+        for e in &out.exchanges {
+            exchange_since(&mut tracklets, e, frames);
+        }
         for t in &out.tracks {
             let det = t.detection_index.and_then(|i| frame.detections.get(i));
             tracklets.entry(t.id).or_default().push(Point {
@@ -130,6 +135,8 @@ pub fn track_sequence(
         let mut firsts = Vec::new();
         // Detections of every tracklet (index shared with exits and entries).
         let mut detections = Vec::new();
+        // The scant colour signature of every tracklet with too few for a full one.
+        let mut scant: Vec<Option<Appearance>> = Vec::new();
         for (&id, points) in &tracklets {
             let class_id = tracklet_class(points);
             let worlds: Vec<(usize, WorldState)> = points
@@ -153,6 +160,11 @@ pub fn track_sequence(
                 signature.add(a);
             }
             let appearance = signature.mean(params.reid.appearance_min_count);
+            scant.push(if appearance.is_some() {
+                None
+            } else {
+                signature.mean(1)
+            });
             exits.push(TrackEnd {
                 appearance,
                 ..track_end(class_id, frames[last_pos].time_s, &last, left_view)
@@ -184,7 +196,17 @@ pub fn track_sequence(
         let mut reid = params.reid.clone();
         reid.gate_chi2 = params.offline.gate_chi2;
         reid.long_gap_gate_chi2 = params.offline.gate_chi2;
-        let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1;
+        let scant_gate = params.offline.scant_appearance_gate;
+        let colours_apart = |i: usize, j: usize| {
+            let (a, b) = (
+                exits[i].appearance.as_ref().or(scant[i].as_ref()),
+                entries[j].appearance.as_ref().or(scant[j].as_ref()),
+            );
+            (scant[i].is_some() || scant[j].is_some())
+                && params.reid.class(exits[i].class_id).appearance_gate < 1.0
+                && a.zip(b).is_some_and(|(a, b)| a.distance(b) > scant_gate)
+        };
+        let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1 && !colours_apart(i, j);
         let mut links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, allowed);
         if params.offline.chain_velocity {
             let (exits, entries) = with_chain_velocities(
@@ -223,6 +245,13 @@ pub fn track_sequence(
                 exit_frame = frames[spans[i].1].frame_index,
                 entry_frame = frames[spans[j].0].frame_index,
                 class_id = exits[i].class_id,
+                colour_distance = ?exits[i]
+                    .appearance
+                    .as_ref()
+                    .or(scant[i].as_ref())
+                    .zip(entries[j].appearance.as_ref().or(scant[j].as_ref()))
+                    .map(|(a, b)| a.distance(b)),
+                scant = scant[i].is_some() || scant[j].is_some(),
                 "offline ReID link"
             );
         }
@@ -285,6 +314,35 @@ pub fn track_sequence(
         frames: out_frames,
         relabelled,
     })
+}
+
+/// Exchanges the points of tracklets `e.id` and `e.other_id` from frame
+/// `e.since_frame_index` on (a contact repair, see [`ExchangeEvent`]).
+fn exchange_since(
+    tracklets: &mut BTreeMap<u64, Vec<Point>>,
+    e: &ExchangeEvent,
+    frames: &[FrameInput],
+) {
+    let mut tail = |id: u64| {
+        tracklets.get_mut(&id).map_or_else(Vec::new, |points| {
+            let k = points.partition_point(|p| frames[p.pos].frame_index < e.since_frame_index);
+            points.split_off(k)
+        })
+    };
+    let (a, b) = (tail(e.id), tail(e.other_id));
+    tracing::debug!(
+        id = e.id,
+        other_id = e.other_id,
+        since = e.since_frame_index,
+        frame = e.frame_index,
+        points = a.len() + b.len(),
+        "offline: frames since a contact exchanged back"
+    );
+    for (id, points) in [(e.other_id, a), (e.id, b)] {
+        if !points.is_empty() {
+            tracklets.entry(id).or_default().extend(points);
+        }
+    }
 }
 
 /// The ends of the tracklets (one exit, entry, frame-position span and id per tracklet).
@@ -620,6 +678,50 @@ mod tests {
         // Entry 2 and the lone tracklet 3: 20 s chains, unchanged.
         assert_eq!(en[2], entries[2]);
         assert_eq!((ex[3], en[3]), (exits[3], entries[3]));
+    }
+
+    /// Offline, a swap repaired by the colours after the contact is undone back to the frame
+    /// where the boxes coincided: each swimmer keeps one id over the whole sequence (the
+    /// online output holds the swapped frames, see `online::tests`).
+    #[test]
+    fn a_repaired_swap_is_undone_back_to_the_contact() {
+        let scene = crate::track::scenes::meet_and_turn_back((0, 8));
+        let frames: Vec<FrameInput> = scene.iter().map(|(f, _)| f.clone()).collect();
+        let ids_of = |params: &TrackerParams| {
+            let result = track_sequence(&frames, params).unwrap();
+            // Per frame, the id whose box is nearest the first swimmer's and the second's.
+            result
+                .frames
+                .iter()
+                .zip(&scene)
+                .map(|(f, (_, (x0, x1)))| {
+                    let by_x = |x: f64| {
+                        f.tracks
+                            .iter()
+                            .min_by(|a, b| {
+                                let da = (a.bbox.center().0 - x).abs();
+                                da.total_cmp(&(b.bbox.center().0 - x).abs())
+                            })
+                            .map(|t| t.id)
+                    };
+                    (by_x(*x0), by_x(*x1))
+                })
+                .collect::<Vec<_>>()
+        };
+        let mut off = TrackerParams::default();
+        off.contact.enabled = false;
+        let swapped = ids_of(&off);
+        assert_ne!(swapped[0], swapped[69], "without the repair: {swapped:?}");
+
+        let ids = ids_of(&TrackerParams::default());
+        let (first, second) = ids[0];
+        assert!(first.is_some() && second.is_some() && first != second);
+        // Frames 29-31 (positions 28-30): the boxes are within 6 px, either id is as near.
+        for (pos, &pair) in ids.iter().enumerate() {
+            if !(28..=30).contains(&pos) {
+                assert_eq!(pair, (first, second), "position {pos}: {ids:?}");
+            }
+        }
     }
 
     #[test]

@@ -12,7 +12,9 @@ use super::kalman::BoxKalman;
 use super::nms::nms_prefer_larger_into;
 use super::params::TrackerParams;
 use super::reid::{associate_exits_to_entries_where, link_is_contested, within_gate, TrackEnd};
-use super::types::{Detection, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState};
+use super::types::{
+    Detection, ExchangeEvent, FrameInput, FrameOutput, MergeEvent, TrackOutput, TrackState,
+};
 use super::world::{WorldFilter, WorldObservation, WorldState};
 use super::TrackError;
 
@@ -342,8 +344,9 @@ impl Tracker {
         self.select_detections(&input.detections);
         self.predict_and_compensate(dt_frames, input);
         self.associate(input);
+        let mut exchanges = Vec::new();
         if self.params.contact.enabled {
-            self.repair_contacts(input);
+            self.repair_contacts(input, &mut exchanges);
         }
         self.expire(input);
         self.observe_drift(input.time_s);
@@ -376,6 +379,7 @@ impl Tracker {
             frame_index: input.frame_index,
             tracks,
             merges,
+            exchanges,
         })
     }
 
@@ -451,8 +455,9 @@ impl Tracker {
     /// join their identities in a group; clean detections feed the identity's signature
     /// (outside a group) or the followed object's (inside); a track in a group with enough
     /// clean detections since its last contact is decided, exchanging objects with the
-    /// group member whose anchor its colours fit, if the colours say so.
-    fn repair_contacts(&mut self, input: &FrameInput) {
+    /// group member whose anchor its colours fit, if the colours say so; each exchange is
+    /// pushed to `exchanges`.
+    fn repair_contacts(&mut self, input: &FrameInput, exchanges: &mut Vec<ExchangeEvent>) {
         let cp = self.params.contact.clone();
         let dets = &input.detections;
         let s = &mut self.scratch;
@@ -514,7 +519,7 @@ impl Tracker {
             }
             let t = &mut self.tracks[i];
             if s.in_contact[i] {
-                t.object.reset();
+                t.object.reset(input.frame_index, s.max_iou[p]);
                 continue;
             }
             let Some(sig) = dets[s.candidates[p]].appearance.as_ref() else {
@@ -580,6 +585,15 @@ impl Tracker {
                         member = ?e.member,
                         "contact repair: objects exchanged"
                     );
+                    exchanges.push(ExchangeEvent {
+                        id: self.tracks[i].id,
+                        other_id: self.tracks[q].id,
+                        since_frame_index: self.tracks[i]
+                            .object
+                            .peak_frame()
+                            .unwrap_or(input.frame_index),
+                        frame_index: input.frame_index,
+                    });
                     let (lo, hi) = (i.min(q), i.max(q));
                     let (head, tail) = self.tracks.split_at_mut(hi);
                     head[lo].exchange_objects(&mut tail[0]);
@@ -1191,6 +1205,7 @@ fn record_world(t: &mut Track, obs: Option<&WorldObservation>, time_s: f64, acce
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::track::scenes;
     use nalgebra::Matrix3;
 
     /// A tracker whose memory bank holds two swimmers that left the view at `t = 0` at east
@@ -1540,34 +1555,18 @@ mod tests {
         assert!(out[5].is_empty());
     }
 
-    /// A still swimmer at (200, 200) for frames 1-5, then the camera pans: frame 6 has the
-    /// homography of a 60 px shift to the right and the swimmer's box there. Returns the
-    /// ids reported in frames 5 and 6.
-    /// Two swimmers whose colour signatures peak in hue bins `colours` swim towards each other
-    /// at 3 px a frame, meet at frame 30 and turn back the way they came. The box filter
-    /// carries each track on through the meeting, so each id ends on the other swimmer.
-    /// Returns, per frame, the reported id nearest the left swimmer and the right one, and
-    /// the ids of the first and second swimmer at frame 5.
-    fn meet_and_turn_back(
-        params: TrackerParams,
-        colours: (usize, usize),
-    ) -> (Vec<(u64, u64)>, (u64, u64)) {
-        use crate::track::appearance::{Appearance, BINS};
-        let sig = |bin: usize| {
-            let mut bins = [0.0; BINS];
-            bins[bin] = 1.0;
-            Appearance { bins }
-        };
-        let (red, blue) = (sig(colours.0), sig(colours.1));
+    /// What [`meet_and_turn_back`] saw: per frame, the reported id nearest the left swimmer
+    /// and the right one; the ids of the first and second swimmer at frame 5; the contact
+    /// repairs.
+    type MeetingIds = (Vec<(u64, u64)>, (u64, u64), Vec<ExchangeEvent>);
+
+    /// Steps [`scenes::meet_and_turn_back`] through a tracker.
+    fn meet_and_turn_back(params: TrackerParams, colours: (usize, usize)) -> MeetingIds {
         let mut tr = Tracker::new(params).unwrap();
         let mut ids = Vec::new();
         let mut first = (0, 0);
-        for i in 1..=70u64 {
-            let d = 3.0 * (30.0 - (i as f64 - 30.0).abs());
-            let (xr, xb) = (40.0 + d, 220.0 - d);
-            let mut f = frame(i, &[(xr, 100.0), (xb, 100.0)]);
-            f.detections[0].appearance = Some(red);
-            f.detections[1].appearance = Some(blue);
+        let mut exchanges = Vec::new();
+        for (f, (x0, x1)) in scenes::meet_and_turn_back(colours) {
             let out = tr.step(&f).unwrap();
             let by_x = |x: f64| {
                 out.tracks
@@ -1578,25 +1577,27 @@ mod tests {
                     })
                     .map_or(0, |t| t.id)
             };
-            if i == 5 {
-                first = (by_x(xr), by_x(xb));
+            if f.frame_index == 5 {
+                first = (by_x(x0), by_x(x1));
             }
-            ids.push((by_x(xr.min(xb)), by_x(xr.max(xb))));
+            ids.push((by_x(x0.min(x1)), by_x(x0.max(x1))));
+            exchanges.extend(out.exchanges);
         }
-        (ids, first)
+        (ids, first, exchanges)
     }
 
     #[test]
     fn a_swap_in_contact_is_repaired_by_the_colours_once_the_two_part() {
         let mut off = TrackerParams::default();
         off.contact.enabled = false;
-        let (ids, (red, blue)) = meet_and_turn_back(off, (0, 8));
+        let (ids, (red, blue), exchanges) = meet_and_turn_back(off, (0, 8));
         assert_ne!(red, blue);
         // Without the repair the ids swap at the meeting and stay swapped.
         assert_eq!(ids[20], (red, blue));
         assert_eq!(ids[69], (blue, red));
+        assert!(exchanges.is_empty());
 
-        let (ids, (red2, blue2)) = meet_and_turn_back(TrackerParams::default(), (0, 8));
+        let (ids, (red2, blue2), exchanges) = meet_and_turn_back(TrackerParams::default(), (0, 8));
         assert_eq!((red2, blue2), (red, blue));
         assert_eq!(ids[20], (red, blue));
         // Swapped right after the meeting (the boxes still overlap, nothing to judge by) ...
@@ -1608,16 +1609,28 @@ mod tests {
             "repaired at index {repaired}: {ids:?}"
         );
         assert!(ids[repaired..].iter().all(|&p| p == (red, blue)), "{ids:?}");
+        // One repair, reported with the frame where the boxes coincided (the swap).
+        assert_eq!(exchanges.len(), 1, "{exchanges:?}");
+        let e = exchanges[0];
+        assert_eq!(e.frame_index, repaired as u64 + 1);
+        assert_eq!(e.since_frame_index, 30);
+        let mut pair = [e.id, e.other_id];
+        pair.sort_unstable();
+        assert_eq!(pair, [red.min(blue), red.max(blue)]);
     }
 
     #[test]
     fn swimmers_of_one_colour_are_not_exchanged() {
-        let (ids, (a, b)) = meet_and_turn_back(TrackerParams::default(), (3, 3));
+        let (ids, (a, b), exchanges) = meet_and_turn_back(TrackerParams::default(), (3, 3));
+        assert!(exchanges.is_empty());
         assert_ne!(a, b);
         assert_eq!(ids[20], (a, b));
         assert_eq!(ids[69], (b, a));
     }
 
+    /// A still swimmer at (200, 200) for frames 1-5, then the camera pans: frame 6 has the
+    /// homography of a 60 px shift to the right and the swimmer's box there. Returns the
+    /// ids reported in frames 5 and 6.
     fn pan_by_60(params: TrackerParams) -> (Vec<u64>, Vec<u64>) {
         let mut tr = Tracker::new(params).unwrap();
         let mut before = Vec::new();

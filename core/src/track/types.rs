@@ -101,6 +101,24 @@ pub struct MergeEvent {
     pub frame_index: u64,
 }
 
+/// A contact repair (see `[tracker.contact]`): two tracks had exchanged the objects they
+/// follow while their boxes overlapped, and exchange them back in this frame. From
+/// `since_frame_index` (the frame of the contact's largest overlap, where the swap most
+/// likely happened) up to this frame each id followed the other's object; from this frame
+/// on each follows its own. Online those frames were reported already; offline they are
+/// relabelled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExchangeEvent {
+    /// One of the two ids.
+    pub id: u64,
+    /// The other.
+    pub other_id: u64,
+    /// The contact's frame of largest overlap: the swapped frames start here.
+    pub since_frame_index: u64,
+    /// Frame in which the repair was decided.
+    pub frame_index: u64,
+}
+
 /// Result of one online tracker step.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct FrameOutput {
@@ -111,4 +129,7 @@ pub struct FrameOutput {
     pub tracks: Vec<TrackOutput>,
     /// Re-labels decided in this frame.
     pub merges: Vec<MergeEvent>,
+    /// Contact repairs decided in this frame.
+    #[serde(default)]
+    pub exchanges: Vec<ExchangeEvent>,
 }
