@@ -685,7 +685,8 @@ mod tests {
     /// online output holds the swapped frames, see `online::tests`).
     #[test]
     fn a_repaired_swap_is_undone_back_to_the_contact() {
-        let scene = crate::track::scenes::meet_and_turn_back((0, 8));
+        use crate::track::scenes;
+        let scene = scenes::meet_and_turn_back((0, 8));
         let frames: Vec<FrameInput> = scene.iter().map(|(f, _)| f.clone()).collect();
         let ids_of = |params: &TrackerParams| {
             let result = track_sequence(&frames, params).unwrap();
@@ -695,15 +696,8 @@ mod tests {
                 .iter()
                 .zip(&scene)
                 .map(|(f, (_, (x0, x1)))| {
-                    let by_x = |x: f64| {
-                        f.tracks
-                            .iter()
-                            .min_by(|a, b| {
-                                let da = (a.bbox.center().0 - x).abs();
-                                da.total_cmp(&(b.bbox.center().0 - x).abs())
-                            })
-                            .map(|t| t.id)
-                    };
+                    let by_x =
+                        |x: f64| scenes::nearest_id(f.tracks.iter().map(|t| (t.id, t.bbox)), x);
                     (by_x(*x0), by_x(*x1))
                 })
                 .collect::<Vec<_>>()

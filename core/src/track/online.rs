@@ -1569,13 +1569,7 @@ mod tests {
         for (f, (x0, x1)) in scenes::meet_and_turn_back(colours) {
             let out = tr.step(&f).unwrap();
             let by_x = |x: f64| {
-                out.tracks
-                    .iter()
-                    .min_by(|a, b| {
-                        let da = (a.bbox.center().0 - x).abs();
-                        da.total_cmp(&(b.bbox.center().0 - x).abs())
-                    })
-                    .map_or(0, |t| t.id)
+                scenes::nearest_id(out.tracks.iter().map(|t| (t.id, t.bbox)), x).unwrap_or(0)
             };
             if f.frame_index == 5 {
                 first = (by_x(x0), by_x(x1));

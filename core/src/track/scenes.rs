@@ -41,3 +41,11 @@ pub(crate) fn meet_and_turn_back(colours: (usize, usize)) -> Vec<(FrameInput, (f
         })
         .collect()
 }
+
+/// The id of the box whose centre's x is nearest `x`, if any.
+pub(crate) fn nearest_id(boxes: impl Iterator<Item = (u64, BBox)>, x: f64) -> Option<u64> {
+    boxes
+        .map(|(id, b)| (id, (b.center().0 - x).abs()))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(id, _)| id)
+}
