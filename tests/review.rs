@@ -14,7 +14,7 @@ use mgmot::record::format::{
     TrackRecord, FORMAT, VERSION,
 };
 use mgmot::record::tlog::write_entry;
-use mgmot::track::{BBox, Detection, MergeEvent, TrackOutput, TrackState};
+use mgmot::track::{BBox, Detection, ExchangeEvent, MergeEvent, TrackOutput, TrackState};
 use nalgebra::Vector3;
 use serde_json::Value;
 use std::io::Write;
@@ -148,6 +148,17 @@ fn frame_record(n: u64) -> FrameRecord {
             vec![MergeEvent {
                 new_id: 3,
                 merged_into_id: 2,
+                frame_index: n,
+            }]
+        } else {
+            Vec::new()
+        },
+        // A contact repair between the two (a display fixture: they never touch here).
+        exchanges: if n == 15 {
+            vec![ExchangeEvent {
+                id: 1,
+                other_id: 2,
+                since_frame_index: 10,
                 frame_index: n,
             }]
         } else {
@@ -442,6 +453,16 @@ fn the_report_is_self_contained_and_chromium_draws_it_without_errors() {
         timeline.matches("class=\"merge\"").count(),
         1,
         "the ReID merge"
+    );
+    assert_eq!(
+        timeline.matches("class=\"exchange\"").count(),
+        1,
+        "the contact repair"
+    );
+    let summary = inside(&dom, "summary");
+    assert!(
+        summary.contains("ids 1 and 2 swapped 1.0–1.5 s"),
+        "the contact repair in the summary"
     );
     let tracks = inside(&dom, "tracks");
     assert!(tracks.contains("id=\"track-row-1\"") && tracks.contains("id=\"track-row-2\""));

@@ -181,6 +181,7 @@ impl FrameRecording {
                 })
                 .collect(),
             merges: output.merges.clone(),
+            exchanges: output.exchanges.clone(),
             frames_dropped,
             keyframe: None,
         };

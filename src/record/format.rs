@@ -10,7 +10,7 @@
 
 use crate::frame::GeoFix;
 use crate::geo::{FrameMetadata, GeoError, Geodetic};
-use crate::track::{Detection, MergeEvent, TrackOutput};
+use crate::track::{Detection, ExchangeEvent, MergeEvent, TrackOutput};
 use nalgebra::{Quaternion, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
@@ -97,6 +97,11 @@ pub struct FrameRecord {
     pub tracks: Vec<TrackRecord>,
     /// Online ReID merges decided in this frame.
     pub merges: Vec<MergeEvent>,
+    /// Contact repairs decided in this frame: two ids had exchanged the objects they follow
+    /// since `since_frame_index` (those frames were sent swapped) and follow their own again
+    /// from this frame on. Absent in recordings made before it was written.
+    #[serde(default)]
+    pub exchanges: Vec<ExchangeEvent>,
     /// Frames the camera delivered that inference never took, so far.
     pub frames_dropped: u64,
     /// The keyframe written for this frame (`keyframes/NAME`), if any.
@@ -121,6 +126,7 @@ impl FrameRecord {
             detections: Vec::new(),
             tracks: Vec::new(),
             merges: Vec::new(),
+            exchanges: Vec::new(),
             frames_dropped: 0,
             keyframe: None,
         }

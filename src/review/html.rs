@@ -201,6 +201,7 @@ function text(parent, x, y, s, attrs) {
     ["Recording started (UTC)", f.started_utc],
     ["Frames", f.frames + (f.span_utc ? " from " + f.span_utc[0] + " to " + f.span_utc[1] + " (" + fmt(f.duration_s, 1) + " s)" : "")],
     ["Tracks", D.tracks.length + " (after " + D.merges.length + " ReID merge" + (D.merges.length === 1 ? "" : "s") + ")"],
+    ["Contact repairs", D.exchanges.length === 0 ? "none" : D.exchanges.map(function (e) { return "ids " + e.ids[0] + " and " + e.ids[1] + " swapped " + fmt(e.since_t, 1) + "–" + fmt(e.t, 1) + " s"; }).join("; ")],
     ["Detector", f.detector],
     ["mgmot", f.mgmot_version + ", camera HFOV " + f.hfov_deg + "° (footprints)"],
   ];
@@ -378,6 +379,13 @@ const timeline = (function buildTimeline() {
     const p = el("path", { class: "merge", d: "M" + x + "," + ya + " C" + (x + 30) + "," + ya + " " + (x + 30) + "," + yb + " " + x + "," + yb, fill: "none", stroke: "#222", "stroke-width": 1.5, "marker-end": "url(#arrow)" }, svg);
     el("title", {}, p).textContent = "ReID merge at " + fmt(m.t, 1) + " s: id " + m.new_id + " is id " + m.merged_into_id;
   });
+  D.exchanges.forEach(function (e) {
+    const a = rowOf[e.ids[0]], b = rowOf[e.ids[1]];
+    if (a === undefined || b === undefined) { return; }
+    const ya = top + a * rowH + rowH / 2, yb = top + b * rowH + rowH / 2;
+    const r = el("rect", { class: "exchange", x: X(e.since_t), y: Math.min(ya, yb) - 4, width: Math.max(X(e.t) - X(e.since_t), 2), height: Math.abs(yb - ya) + 8, fill: "none", stroke: "#c00", "stroke-width": 1.2, "stroke-dasharray": "4 3" }, svg);
+    el("title", {}, r).textContent = "Contact repair at " + fmt(e.t, 1) + " s: ids " + e.ids[0] + " and " + e.ids[1] + " followed each other's object from " + fmt(e.since_t, 1) + " s (sent so); their own from then on";
+  });
   const defs = el("defs", {}, svg);
   const mk = el("marker", { id: "arrow", viewBox: "0 0 10 10", refX: 9, refY: 5, markerWidth: 6, markerHeight: 6, orient: "auto" }, defs);
   el("path", { d: "M0,0 L10,5 L0,10 z", fill: "#222" }, mk);
@@ -389,7 +397,7 @@ const timeline = (function buildTimeline() {
     setTime(Math.min(Math.max((x - left) / (W - left - right) * span, 0), duration));
   });
   const lg = h("div", { class: "muted" }, box);
-  lg.innerHTML = 'Bars: <span class="swatch" style="background:#4363d8"></span>detected (track colour) <span class="swatch" style="background:#f2c14e"></span>coasting (absent ≤ 2 s) <span class="swatch" style="background:#c9ced6"></span>lost (absent longer); arrows: ReID merges (new id → the old id it is). Click to move the map\'s time.';
+  lg.innerHTML = 'Bars: <span class="swatch" style="background:#4363d8"></span>detected (track colour) <span class="swatch" style="background:#f2c14e"></span>coasting (absent ≤ 2 s) <span class="swatch" style="background:#c9ced6"></span>lost (absent longer); arrows: ReID merges (new id → the old id it is); dashed red boxes: contact repairs (the two ids were swapped over that span). Click to move the map\'s time.';
   return { update: function (t) { cursor.setAttribute("x1", X(t)); cursor.setAttribute("x2", X(t)); } };
 })();
 

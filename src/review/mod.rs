@@ -236,6 +236,19 @@ pub struct Merge {
     pub final_id: u64,
 }
 
+/// A contact repair as the report shows it: two tracks had exchanged the objects they follow
+/// (while their boxes overlapped) and exchanged them back.
+#[derive(Debug, Clone, Serialize)]
+pub struct Exchange {
+    /// When it was decided (s since the first frame).
+    pub t: f64,
+    /// Since when the two were swapped (s since the first frame; the decision's own time when
+    /// that frame is not in the record).
+    pub since_t: f64,
+    /// The final ids of the two tracks.
+    pub ids: (u64, u64),
+}
+
 /// A detection box (full-frame pixels) on a keyframe.
 #[derive(Debug, Clone, Serialize)]
 pub struct KeyBox {
@@ -279,6 +292,8 @@ pub struct Review {
     pub tracks: Vec<TrackSummary>,
     /// ReID merges.
     pub merges: Vec<Merge>,
+    /// Contact repairs.
+    pub exchanges: Vec<Exchange>,
     /// Telemetry health.
     pub health: Health,
     /// Keyframes (thinned to [`MAX_KEYFRAMES`]), images not yet read.
@@ -612,6 +627,23 @@ impl Review {
                 final_id: merges.final_id(m.merged_into_id),
             })
             .collect();
+        let exchanges = frames
+            .iter()
+            .flat_map(|f| f.exchanges.iter().map(move |e| (f, e)))
+            .map(|(f, e)| {
+                let t = t_of(f);
+                // Frames are recorded in order: the swap's frame by binary search.
+                let since = frames.partition_point(|g| g.frame < e.since_frame_index);
+                Exchange {
+                    t,
+                    since_t: frames
+                        .get(since)
+                        .filter(|g| g.frame == e.since_frame_index)
+                        .map_or(t, t_of),
+                    ids: (merges.final_id(e.id), merges.final_id(e.other_id)),
+                }
+            })
+            .collect();
 
         let with_keyframe: Vec<&FrameRecord> =
             frames.iter().filter(|f| f.keyframe.is_some()).collect();
@@ -683,6 +715,7 @@ impl Review {
             map,
             tracks,
             merges: merge_list,
+            exchanges,
             health,
             keyframes_recorded: with_keyframe.len(),
             keyframes,
