@@ -258,11 +258,7 @@ mod tests {
     use super::*;
     use crate::track::appearance::BINS;
 
-    fn sig(bin: usize) -> Appearance {
-        let mut bins = [0.0; BINS];
-        bins[bin] = 1.0;
-        Appearance { bins }
-    }
+    use crate::track::scenes::colour as sig;
 
     fn mix(a: usize, b: usize, wa: f32) -> Appearance {
         let mut bins = [0.0; BINS];

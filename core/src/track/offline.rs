@@ -135,8 +135,9 @@ pub fn track_sequence(
         let mut firsts = Vec::new();
         // Detections of every tracklet (index shared with exits and entries).
         let mut detections = Vec::new();
-        // The scant colour signature of every tracklet with too few for a full one.
-        let mut scant: Vec<Option<Appearance>> = Vec::new();
+        // The colour signature of every tracklet, however few detections have one, and
+        // whether it is scant (too few for the exits' and entries' own signature).
+        let mut signatures: Vec<(Option<Appearance>, bool)> = Vec::new();
         for (&id, points) in &tracklets {
             let class_id = tracklet_class(points);
             let worlds: Vec<(usize, WorldState)> = points
@@ -160,11 +161,7 @@ pub fn track_sequence(
                 signature.add(a);
             }
             let appearance = signature.mean(params.reid.appearance_min_count);
-            scant.push(if appearance.is_some() {
-                None
-            } else {
-                signature.mean(1)
-            });
+            signatures.push((signature.mean(1), appearance.is_none()));
             exits.push(TrackEnd {
                 appearance,
                 ..track_end(class_id, frames[last_pos].time_s, &last, left_view)
@@ -197,14 +194,15 @@ pub fn track_sequence(
         reid.gate_chi2 = params.offline.gate_chi2;
         reid.long_gap_gate_chi2 = params.offline.gate_chi2;
         let scant_gate = params.offline.scant_appearance_gate;
+        let colour_distance = |i: usize, j: usize| {
+            let ((a, _), (b, _)) = (&signatures[i], &signatures[j]);
+            a.as_ref().zip(b.as_ref()).map(|(a, b)| a.distance(b))
+        };
+        let scant = |i: usize, j: usize| signatures[i].1 || signatures[j].1;
         let colours_apart = |i: usize, j: usize| {
-            let (a, b) = (
-                exits[i].appearance.as_ref().or(scant[i].as_ref()),
-                entries[j].appearance.as_ref().or(scant[j].as_ref()),
-            );
-            (scant[i].is_some() || scant[j].is_some())
+            scant(i, j)
                 && params.reid.class(exits[i].class_id).appearance_gate < 1.0
-                && a.zip(b).is_some_and(|(a, b)| a.distance(b) > scant_gate)
+                && colour_distance(i, j).is_some_and(|d| d > scant_gate)
         };
         let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1 && !colours_apart(i, j);
         let mut links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, allowed);
@@ -245,13 +243,8 @@ pub fn track_sequence(
                 exit_frame = frames[spans[i].1].frame_index,
                 entry_frame = frames[spans[j].0].frame_index,
                 class_id = exits[i].class_id,
-                colour_distance = ?exits[i]
-                    .appearance
-                    .as_ref()
-                    .or(scant[i].as_ref())
-                    .zip(entries[j].appearance.as_ref().or(scant[j].as_ref()))
-                    .map(|(a, b)| a.distance(b)),
-                scant = scant[i].is_some() || scant[j].is_some(),
+                colour_distance = ?colour_distance(i, j),
+                scant = scant(i, j),
                 "offline ReID link"
             );
         }

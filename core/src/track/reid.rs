@@ -657,9 +657,7 @@ mod tests {
 
     /// A signature with all its weight in one bin.
     fn colour(bin: usize) -> Option<Appearance> {
-        let mut bins = [0.0; crate::track::appearance::BINS];
-        bins[bin] = 1.0;
-        Some(Appearance { bins })
+        Some(crate::track::scenes::colour(bin))
     }
 
     /// Two swimmers come back swapped in position: the appearance gate keeps each with its
