@@ -199,10 +199,12 @@ pub fn track_sequence(
             a.as_ref().zip(b.as_ref()).map(|(a, b)| a.distance(b))
         };
         let scant = |i: usize, j: usize| signatures[i].1 || signatures[j].1;
+        // Never tighter than the class's own gate on full signatures.
         let colours_apart = |i: usize, j: usize| {
+            let gate = params.reid.class(exits[i].class_id).appearance_gate;
             scant(i, j)
-                && params.reid.class(exits[i].class_id).appearance_gate < 1.0
-                && colour_distance(i, j).is_some_and(|d| d > scant_gate)
+                && gate < 1.0
+                && colour_distance(i, j).is_some_and(|d| d > scant_gate.max(gate))
         };
         let allowed = |i: usize, j: usize| spans[j].0 > spans[i].1 && !colours_apart(i, j);
         let mut links = associate_exits_to_entries_where(&exits, &entries, &reid, drift, allowed);
@@ -225,8 +227,8 @@ pub fn track_sequence(
             }
             links = associate_exits_to_entries_where(&exits, &entries, &chain_reid, drift, allowed);
         }
-        if params.offline.weak_class_max_detections > 0 {
-            let weak = params.offline.weak_class_max_detections as usize;
+        let weak = params.offline.weak_class_max_detections as usize;
+        if weak > 0 || params.offline.stricter_class_orphans {
             let weak = |i: usize| detections[i] <= weak;
             let ends = TrackletEnds {
                 ids: &exit_ids,
@@ -234,7 +236,14 @@ pub fn track_sequence(
                 entries: &entries,
                 spans: &spans,
             };
-            link_weak_class_orphans(&ends, weak, &mut links, &reid, drift);
+            link_weak_class_orphans(
+                &ends,
+                weak,
+                params.offline.stricter_class_orphans,
+                &mut links,
+                &reid,
+                drift,
+            );
         }
         for &(i, j) in &links {
             tracing::debug!(
@@ -347,16 +356,26 @@ struct TrackletEnds<'a> {
     spans: &'a [(usize, usize)],
 }
 
-/// Orphans of uncertain class (`offline.weak_class_max_detections`): a tracklet linked to
-/// nothing whose class rests on `weak(i)` detections or fewer may be of another class whose
-/// ReID thresholds are the same as its own (a swimmer's lone detection classed as a
-/// life-saving appliance). It is offered, as that class, to the chains' free ends: as the
-/// exit before a tracklet that has no predecessor, or the entry after one that has no
-/// successor, each pair under the usual gate and timing. Classes are tried in ascending id
-/// order; the first link found is kept.
+/// Orphans of uncertain class: a tracklet linked to nothing after the assignments may be of
+/// another class than its majority says, and is then offered as that class:
+///
+/// - `weak(i)`: its class rests on few detections (`offline.weak_class_max_detections`),
+///   and the other class has the same ReID thresholds (a swimmer's lone detection classed
+///   as a life-saving appliance);
+/// - `stricter` (`offline.stricter_class_orphans`): any orphan, as a class whose thresholds
+///   are no wider than its own ([`no_wider_than`](super::params::ClassReidParams::no_wider_than)), so the link is judged
+///   at least as strictly as its own class would judge it (a swimmer half out of the image,
+///   boxed as a boat).
+///
+/// As the other class it may go into the gap of a link of that class (both the link's exit
+/// to it and it to the link's entry inside the gate, the gap's only such link), or else
+/// join a chain's free end: as the exit before a tracklet that has no predecessor, or the
+/// entry after one that has no successor, each pair under the usual gate and timing.
+/// Classes are tried in ascending id order; the first link found is kept.
 fn link_weak_class_orphans(
     ends: &TrackletEnds<'_>,
     weak: impl Fn(usize) -> bool,
+    stricter: bool,
     links: &mut Vec<(usize, usize)>,
     reid: &ReidParams,
     drift: &SeaDrift,
@@ -375,23 +394,25 @@ fn link_weak_class_orphans(
         has_predecessor[j] = true;
     }
     for o in 0..n {
-        if has_predecessor[o] || has_successor[o] || !weak(o) {
+        if has_predecessor[o] || has_successor[o] {
             continue;
         }
-        // The orphan and the free ends it could join, in index order: the only pairs that
-        // may link (exit before it with no successor, entry after it with no predecessor).
-        let free_exits: Vec<usize> = (0..n)
-            .filter(|&i| i == o || (!has_successor[i] && spans[o].0 > spans[i].1))
-            .collect();
-        let free_entries: Vec<usize> = (0..n)
-            .filter(|&j| j == o || (!has_predecessor[j] && spans[j].0 > spans[o].1))
-            .collect();
         let own = exits[o].class_id;
-        let alternatives = reid
+        let (own_params, weak_o) = (reid.class(own), weak(o));
+        let alternatives: Vec<u32> = reid
             .classes
             .keys()
             .copied()
-            .filter(|&c| c != own && reid.class(c) == reid.class(own));
+            .filter(|&c| c != own)
+            .filter(|&c| {
+                let cp = reid.class(c);
+                if cp == own_params {
+                    weak_o
+                } else {
+                    stricter && cp.no_wider_than(own_params)
+                }
+            })
+            .collect();
         for class_id in alternatives {
             let as_class = |k: usize, end: &TrackEnd| {
                 let mut e = *end;
@@ -400,26 +421,70 @@ fn link_weak_class_orphans(
                 }
                 e
             };
-            let ex: Vec<TrackEnd> = free_exits.iter().map(|&i| as_class(i, &exits[i])).collect();
-            let en: Vec<TrackEnd> = free_entries
-                .iter()
-                .map(|&j| as_class(j, &entries[j]))
+            let fits = |i: usize, j: usize| {
+                !associate_exits_to_entries_where(
+                    &[as_class(i, &exits[i])],
+                    &[as_class(j, &entries[j])],
+                    reid,
+                    drift,
+                    |_, _| true,
+                )
+                .is_empty()
+            };
+            // Into a link's gap.
+            let gaps: Vec<usize> = (0..links.len())
+                .filter(|&k| {
+                    let (i, j) = links[k];
+                    exits[i].class_id == class_id
+                        && spans[i].1 < spans[o].0
+                        && spans[o].1 < spans[j].0
+                })
+                .filter(|&k| fits(links[k].0, o) && fits(o, links[k].1))
                 .collect();
-            let with_orphan = |a: usize, b: usize| (free_exits[a] == o) != (free_entries[b] == o);
-            if let Some(&(a, b)) =
-                associate_exits_to_entries_where(&ex, &en, reid, drift, with_orphan).first()
-            {
-                let (i, j) = (free_exits[a], free_entries[b]);
+            let (new_links, place) = if let [k] = gaps[..] {
+                let (i, j) = links.swap_remove(k);
+                (vec![(i, o), (o, j)], "into a link's gap")
+            } else {
+                // The orphan and the free ends it could join, in index order: the only pairs
+                // that may link (exit before it with no successor, entry after it with no
+                // predecessor).
+                let free_exits: Vec<usize> = (0..n)
+                    .filter(|&i| i == o || (!has_successor[i] && spans[o].0 > spans[i].1))
+                    .collect();
+                let free_entries: Vec<usize> = (0..n)
+                    .filter(|&j| j == o || (!has_predecessor[j] && spans[j].0 > spans[o].1))
+                    .collect();
+                let ex: Vec<TrackEnd> =
+                    free_exits.iter().map(|&i| as_class(i, &exits[i])).collect();
+                let en: Vec<TrackEnd> = free_entries
+                    .iter()
+                    .map(|&j| as_class(j, &entries[j]))
+                    .collect();
+                let with_orphan =
+                    |a: usize, b: usize| (free_exits[a] == o) != (free_entries[b] == o);
+                let found = associate_exits_to_entries_where(&ex, &en, reid, drift, with_orphan);
+                let pairs = found
+                    .first()
+                    .map(|&(a, b)| (free_exits[a], free_entries[b]));
+                (pairs.into_iter().collect(), "at a chain's free end")
+            };
+            if new_links.is_empty() {
+                continue;
+            }
+            for &(i, j) in &new_links {
                 tracing::debug!(
                     tracklet = ids[o],
                     class_id,
+                    exit_id = ids[i],
+                    entry_id = ids[j],
+                    place,
                     "offline ReID: an orphan linked as another class"
                 );
-                links.push((i, j));
                 has_successor[i] = true;
                 has_predecessor[j] = true;
-                break;
             }
+            links.extend(new_links);
+            break;
         }
     }
 }
@@ -613,11 +678,11 @@ mod tests {
         };
         let drift = SeaDrift::default();
         let mut links = Vec::new();
-        link_weak_class_orphans(&ends, |i| i == 0, &mut links, &reid, &drift);
+        link_weak_class_orphans(&ends, |i| i == 0, false, &mut links, &reid, &drift);
         assert_eq!(links, vec![(0, 1)]);
 
         let mut certain = Vec::new();
-        link_weak_class_orphans(&ends, |_| false, &mut certain, &reid, &drift);
+        link_weak_class_orphans(&ends, |_| false, false, &mut certain, &reid, &drift);
         assert!(certain.is_empty());
 
         let boat = TrackEnd {
@@ -631,8 +696,74 @@ mod tests {
             ..ends
         };
         let mut as_boat = Vec::new();
-        link_weak_class_orphans(&ends, |i| i == 0, &mut as_boat, &reid, &drift);
+        link_weak_class_orphans(&ends, |i| i == 0, false, &mut as_boat, &reid, &drift);
         assert!(as_boat.is_empty(), "a boat is not offered as a swimmer");
+    }
+
+    /// A swimmer's chain 0 -> 2 with a boat-classed tracklet 1 in its gap, at the same
+    /// place (a swimmer half out of the image boxed as a boat): offered as a swimmer (no
+    /// wider thresholds than a boat's) it goes into the gap, 0 -> 1 -> 2; with nothing
+    /// after it, it joins the chain's free end. Not with `stricter` off, and a swimmer-classed
+    /// tracklet is never offered as a boat (wider thresholds).
+    #[test]
+    fn an_orphan_is_offered_as_a_stricter_class_into_a_gap_or_at_a_free_end() {
+        let reid = {
+            let mut r = TrackerParams::default().reid;
+            r.gate_chi2 = 16.0;
+            r.long_gap_gate_chi2 = 16.0;
+            r
+        };
+        let drift = SeaDrift::default();
+        let as_boat = |e: TrackEnd| TrackEnd { class_id: 2, ..e };
+        let exits = [
+            swimmer_end(10.0, 0.0),
+            as_boat(swimmer_end(20.0, 0.3)),
+            swimmer_end(40.0, 0.4),
+        ];
+        let entries = [
+            swimmer_end(0.0, 0.0),
+            as_boat(swimmer_end(12.0, 0.2)),
+            swimmer_end(25.0, 0.4),
+        ];
+        let spans = [(0, 300), (360, 600), (750, 1200)];
+        let ends = TrackletEnds {
+            ids: &[1, 2, 3],
+            exits: &exits,
+            entries: &entries,
+            spans: &spans,
+        };
+        let mut links = vec![(0, 2)];
+        link_weak_class_orphans(&ends, |_| false, true, &mut links, &reid, &drift);
+        links.sort_unstable();
+        assert_eq!(links, vec![(0, 1), (1, 2)]);
+
+        let mut off = vec![(0, 2)];
+        link_weak_class_orphans(&ends, |_| false, false, &mut off, &reid, &drift);
+        assert_eq!(off, vec![(0, 2)]);
+
+        // Without the chain's later tracklet: the orphan joins the free end after 0.
+        let two = TrackletEnds {
+            ids: &[1, 2],
+            exits: &exits[..2],
+            entries: &entries[..2],
+            spans: &spans[..2],
+        };
+        let mut free = Vec::new();
+        link_weak_class_orphans(&two, |_| false, true, &mut free, &reid, &drift);
+        assert_eq!(free, vec![(0, 1)]);
+
+        // A boat chain with a swimmer-classed tracklet in its gap: left alone.
+        let (bx, bn) = (exits.map(as_boat), entries.map(as_boat));
+        let (sx, sn) = (swimmer_end(20.0, 0.3), swimmer_end(12.0, 0.2));
+        let (bx, bn) = ([bx[0], sx, bx[2]], [bn[0], sn, bn[2]]);
+        let boats = TrackletEnds {
+            exits: &bx,
+            entries: &bn,
+            ..ends
+        };
+        let mut kept = vec![(0, 2)];
+        link_weak_class_orphans(&boats, |_| false, true, &mut kept, &reid, &drift);
+        assert_eq!(kept, vec![(0, 2)], "a swimmer is not offered as a boat");
     }
 
     /// Tracklets 0 -> 1 -> 2 linked, 3 alone: an exit averages from its chain's first
