@@ -21,7 +21,8 @@
 # seconds, default 30; seeds --model-seeds, default the same as --seeds), rows "<seed>-model": the frames rendered (`mgmot-sim render`), the
 # shipped int8 model run on them (`mgmot detect`, ONNX Runtime from the PyPI wheel when
 # scripts/detect_fetch_onnxruntime.sh can fetch it, else the fp32 model on tract), tracked
-# with track_high_thresh 0.4 (the model's setting, models/README.md). About 1 minute per
+# with track_high_thresh 0.4 and world_low_confidence_to_lost false (the model's settings,
+# models/README.md). About 1 minute per
 # scenario and seed.
 #
 # Seeds: "default" is the scenario's own seed (the one its parameters were tuned on); the
@@ -111,7 +112,7 @@ if [ "$with_model" = 1 ]; then
     echo "bench_tracking: ONNX Runtime not available, the model rows use fp32 on tract" >&2
     detect=(--model models/mgmot-det-fp32.onnx --backend tract)
   fi
-  printf '[baseline]\ntrack_high_thresh = 0.4\n' > "$out/model_params.toml"
+  printf '[baseline]\ntrack_high_thresh = 0.4\nworld_low_confidence_to_lost = false\n' > "$out/model_params.toml"
   [ -n "$model_seeds" ] || model_seeds="$seeds"
   m=0; mtotal=$(( $(wc -w <<<"$model_scenarios") * $(wc -w <<<"$model_seeds") ))
   for sc in $model_scenarios; do

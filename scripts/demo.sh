@@ -81,8 +81,9 @@ kind = "onnx"
 model = "$PWD/$model"
 backend = "$backend"
 [tracker.baseline]
-# The shipped model's setting (systemd/mgmot.example.toml, models/README.md).
+# The shipped model's settings (systemd/mgmot.example.toml, models/README.md).
 track_high_thresh = 0.4
+world_low_confidence_to_lost = false
 [recording]
 dir = "$PWD/$dir/flights"
 keyframe_every_s = 5.0

@@ -819,7 +819,9 @@ impl Tracker {
     /// Matches the detections no IoU stage took to the confirmed and lost tracks no stage
     /// matched, by the squared Mahalanobis distance of the detection's sea-surface position
     /// from the track's predicted world position, gated at `gate_chi2`; tracks and
-    /// detections of different classes are never paired.
+    /// detections of different classes are never paired. Low-confidence detections go to
+    /// tracks matched in the previous frame only, unless
+    /// `baseline.world_low_confidence_to_lost`.
     fn world_stage(
         &mut self,
         high: &[usize],
@@ -841,20 +843,22 @@ impl Tracker {
         if rows.is_empty() {
             return;
         }
-        let cols: Vec<usize> = high
-            .iter()
-            .chain(low)
-            .copied()
-            .filter(|&j| !self.scratch.det_used[j] && dets[j].world.is_some())
-            .collect();
+        let free = |j: &usize| !self.scratch.det_used[*j] && dets[*j].world.is_some();
+        let mut cols: Vec<usize> = high.iter().copied().filter(free).collect();
+        let n_high = cols.len();
+        cols.extend(low.iter().copied().filter(free));
         if cols.is_empty() {
             return;
         }
         let s = &mut self.scratch;
         s.cost.clear();
-        for (_, state, class_id) in &rows {
-            for &j in &cols {
+        let low_to_lost = self.params.baseline.world_low_confidence_to_lost;
+        for (i, state, class_id) in &rows {
+            let lost = self.tracks[*i].phase == Phase::Lost;
+            for (k, &j) in cols.iter().enumerate() {
                 let c = match &dets[j].world {
+                    // `cols` lists the high-confidence detections first.
+                    _ if lost && !low_to_lost && k >= n_high => f64::INFINITY,
                     Some(obs) if dets[j].class_id == *class_id => mahalanobis2(
                         obs.pos_ne_m - state.pos_ne_m,
                         state.pos_cov_m2() + obs.cov_ne_m2,
@@ -1263,6 +1267,57 @@ mod tests {
             });
         }
         tr
+    }
+
+    /// A swimmer seen for 10 frames and missed for 3 is seen again 200 px away in the image
+    /// (a camera jump) at its sea-surface position, so only the world stage can take the
+    /// box. A low-confidence box brings the lost track back only with
+    /// `baseline.world_low_confidence_to_lost`; a high-confidence one always does.
+    #[test]
+    fn low_confidence_boxes_bring_lost_tracks_back_only_when_allowed() {
+        let back_under_first_id = |to_lost: bool, score: f32| {
+            let mut p = TrackerParams::default();
+            p.reid.enabled = false;
+            p.baseline.world_low_confidence_to_lost = to_lost;
+            assert!(p.baseline.track_low_thresh < 0.3 && 0.3 < p.baseline.track_high_thresh);
+            let mut tr = Tracker::new(p).unwrap();
+            let obs = WorldObservation {
+                pos_ne_m: Vector2::zeros(),
+                cov_ne_m2: Matrix2::identity() * 0.25,
+            };
+            let frame = |i: u64, det: Option<(f64, f32)>| FrameInput {
+                frame_index: i,
+                time_s: i as f64 / 30.0,
+                image_size_px: (640, 480),
+                detections: det
+                    .map(|(x, score)| Detection {
+                        bbox: BBox::from_center(x, 100.0, 20.0, 20.0),
+                        score,
+                        class_id: 1,
+                        world: Some(obs),
+                        appearance: None,
+                    })
+                    .into_iter()
+                    .collect(),
+                image_motion: None,
+            };
+            let mut first_id = None;
+            for i in 1..=10 {
+                let out = tr.step(&frame(i, Some((100.0, 0.9)))).unwrap();
+                first_id = out.tracks.first().map(|t| t.id);
+            }
+            for i in 11..=13 {
+                tr.step(&frame(i, None)).unwrap();
+            }
+            let out = tr.step(&frame(14, Some((300.0, score)))).unwrap();
+            assert!(first_id.is_some());
+            out.tracks
+                .iter()
+                .any(|t| Some(t.id) == first_id && t.detection_index == Some(0))
+        };
+        assert!(!back_under_first_id(false, 0.3));
+        assert!(back_under_first_id(true, 0.3));
+        assert!(back_under_first_id(false, 0.9));
     }
 
     /// Two swimmers of a group come back: the one seen first (east 6 m) is nearer the

@@ -86,6 +86,23 @@ pub struct BaselineParams {
     /// +0.02 to +0.04 at 2.0; 1.0 cost `gimbal_swings` online 0.04). `None` disables it
     /// (plain BoT-SORT association).
     pub world_gate_chi2: Option<f64>,
+    /// Whether the world stage (`world_gate_chi2`) offers the low-confidence detections
+    /// left over (between `track_low_thresh` and `track_high_thresh`) to lost tracks too,
+    /// not only to the tracks matched in the previous frame (false: as in BoT-SORT's second
+    /// stage, a low-confidence box continues a track but does not bring a lost one back).
+    /// Which is better depends on what the detector's low scores mean. On by default: the
+    /// simulated detector's low-confidence boxes are real, small swimmers, and off cost its
+    /// benchmark broadly (12 seeds x 10 scenarios: `mixed_mission_soak` online HOTA -0.02 to
+    /// -0.04 on every seed, `gimbal_swings` seeds 14 and 90210 online IDF1 -0.13 and -0.09,
+    /// `swimmer_group` seed 12 -0.06). Off for the shipped model (its setting with
+    /// `track_high_thresh` 0.4: `systemd/mgmot.example.toml`, the demo, the benchmark): the
+    /// low-confidence boxes it leaves over in a group, given to lost tracks, were mostly
+    /// false positives. Its `swimmer_group` own seed: FP 694 -> 515 online (FN +62), HOTA /
+    /// IDF1 online 0.446 / 0.671 -> 0.461 / 0.646, offline 0.444 / 0.667 -> 0.462 / 0.647
+    /// (the tracker before the world stage: 0.456 / 0.644 and 0.462 / 0.648); seed 7771
+    /// online 0.464 / 0.679 -> 0.496 / 0.724, offline 0.462 / 0.675 -> 0.494 / 0.722; its
+    /// other six runs within 0.003.
+    pub world_low_confidence_to_lost: bool,
     /// Frames a lost track is still reported ("coasting") after its last detection: with
     /// its Kalman-predicted box, its world state predicted to the frame, state
     /// [`TrackState::Lost`](super::TrackState::Lost) and no detection, while the whole
@@ -144,6 +161,7 @@ impl Default for BaselineParams {
             nms_iou_threshold: None,
             world_accel_std_m_s2: 0.5,
             world_gate_chi2: Some(2.0),
+            world_low_confidence_to_lost: true,
             coast_frames: 2,
             camera_motion_compensation: true,
             cmc_smoothing: AttitudeSmoothing::default(),
