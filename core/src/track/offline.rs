@@ -363,9 +363,12 @@ struct TrackletEnds<'a> {
 ///   and the other class has the same ReID thresholds (a swimmer's lone detection classed
 ///   as a life-saving appliance);
 /// - `stricter` (`offline.stricter_class_orphans`): any orphan, as a class whose thresholds
-///   are no wider than its own ([`no_wider_than`](super::params::ClassReidParams::no_wider_than)), so the link is judged
-///   at least as strictly as its own class would judge it (a swimmer half out of the image,
-///   boxed as a boat).
+///   are no wider than its own
+///   ([`no_wider_than`](super::params::ClassReidParams::no_wider_than)), so the link is
+///   judged at least as strictly as its own class would judge it (a swimmer half out of the
+///   image, boxed as a boat); only where both ends have a colour signature and that class
+///   has a colour gate: a change of class needs the colours to agree (a boat that comes to
+///   a swimmer's place is not the swimmer).
 ///
 /// As the other class it may go into the gap of a link of that class (both the link's exit
 /// to it and it to the link's entry inside the gate, the gap's only such link), or else
@@ -399,21 +402,27 @@ fn link_weak_class_orphans(
         }
         let own = exits[o].class_id;
         let (own_params, weak_o) = (reid.class(own), weak(o));
-        let alternatives: Vec<u32> = reid
+        // (class, whether the colours must vouch for the link)
+        let alternatives: Vec<(u32, bool)> = reid
             .classes
             .keys()
             .copied()
             .filter(|&c| c != own)
-            .filter(|&c| {
+            .filter_map(|c| {
                 let cp = reid.class(c);
                 if cp == own_params {
-                    weak_o
+                    weak_o.then_some((c, false))
                 } else {
-                    stricter && cp.no_wider_than(own_params)
+                    let judged = cp.no_wider_than(own_params) && cp.appearance_gate < 1.0;
+                    (stricter && judged).then_some((c, true))
                 }
             })
             .collect();
-        for class_id in alternatives {
+        // Both ends have a colour signature, so the class's gate has judged them.
+        let coloured =
+            |i: usize, j: usize| exits[i].appearance.is_some() && entries[j].appearance.is_some();
+        for (class_id, needs_colours) in alternatives {
+            let vouched = |i: usize, j: usize| !needs_colours || coloured(i, j);
             let as_class = |k: usize, end: &TrackEnd| {
                 let mut e = *end;
                 if k == o {
@@ -439,7 +448,10 @@ fn link_weak_class_orphans(
                         && spans[i].1 < spans[o].0
                         && spans[o].1 < spans[j].0
                 })
-                .filter(|&k| fits(links[k].0, o) && fits(o, links[k].1))
+                .filter(|&k| {
+                    let (i, j) = links[k];
+                    vouched(i, o) && vouched(o, j) && fits(i, o) && fits(o, j)
+                })
                 .collect();
             let (new_links, place) = if let [k] = gaps[..] {
                 let (i, j) = links.swap_remove(k);
@@ -460,8 +472,10 @@ fn link_weak_class_orphans(
                     .iter()
                     .map(|&j| as_class(j, &entries[j]))
                     .collect();
-                let with_orphan =
-                    |a: usize, b: usize| (free_exits[a] == o) != (free_entries[b] == o);
+                let with_orphan = |a: usize, b: usize| {
+                    let (i, j) = (free_exits[a], free_entries[b]);
+                    (i == o) != (j == o) && vouched(i, j)
+                };
                 let found = associate_exits_to_entries_where(&ex, &en, reid, drift, with_orphan);
                 let pairs = found
                     .first()
@@ -703,8 +717,9 @@ mod tests {
     /// A swimmer's chain 0 -> 2 with a boat-classed tracklet 1 in its gap, at the same
     /// place (a swimmer half out of the image boxed as a boat): offered as a swimmer (no
     /// wider thresholds than a boat's) it goes into the gap, 0 -> 1 -> 2; with nothing
-    /// after it, it joins the chain's free end. Not with `stricter` off, and a swimmer-classed
-    /// tracklet is never offered as a boat (wider thresholds).
+    /// after it, it joins the chain's free end. Not with `stricter` off, nor when the colours
+    /// disagree or are unknown, and a swimmer-classed tracklet is never offered as a boat
+    /// (wider thresholds).
     #[test]
     fn an_orphan_is_offered_as_a_stricter_class_into_a_gap_or_at_a_free_end() {
         let reid = {
@@ -715,15 +730,19 @@ mod tests {
         };
         let drift = SeaDrift::default();
         let as_boat = |e: TrackEnd| TrackEnd { class_id: 2, ..e };
+        let orange = |t: f64, e: f64| TrackEnd {
+            appearance: Some(crate::track::scenes::colour(2)),
+            ..swimmer_end(t, e)
+        };
         let exits = [
-            swimmer_end(10.0, 0.0),
-            as_boat(swimmer_end(20.0, 0.3)),
-            swimmer_end(40.0, 0.4),
+            orange(10.0, 0.0),
+            as_boat(orange(20.0, 0.3)),
+            orange(40.0, 0.4),
         ];
         let entries = [
-            swimmer_end(0.0, 0.0),
-            as_boat(swimmer_end(12.0, 0.2)),
-            swimmer_end(25.0, 0.4),
+            orange(0.0, 0.0),
+            as_boat(orange(12.0, 0.2)),
+            orange(25.0, 0.4),
         ];
         let spans = [(0, 300), (360, 600), (750, 1200)];
         let ends = TrackletEnds {
@@ -740,6 +759,21 @@ mod tests {
         let mut off = vec![(0, 2)];
         link_weak_class_orphans(&ends, |_| false, false, &mut off, &reid, &drift);
         assert_eq!(off, vec![(0, 2)]);
+
+        // Colours that disagree, or none: no change of class.
+        for appearance in [Some(crate::track::scenes::colour(9)), None] {
+            let (mut x, mut n) = (exits, entries);
+            x[1].appearance = appearance;
+            n[1].appearance = appearance;
+            let other = TrackletEnds {
+                exits: &x,
+                entries: &n,
+                ..ends
+            };
+            let mut kept = vec![(0, 2)];
+            link_weak_class_orphans(&other, |_| false, true, &mut kept, &reid, &drift);
+            assert_eq!(kept, vec![(0, 2)], "{appearance:?}");
+        }
 
         // Without the chain's later tracklet: the orphan joins the free end after 0.
         let two = TrackletEnds {
