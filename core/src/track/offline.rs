@@ -236,7 +236,7 @@ pub fn track_sequence(
                 entries: &entries,
                 spans: &spans,
             };
-            link_weak_class_orphans(
+            link_orphans_as_other_classes(
                 &ends,
                 weak,
                 params.offline.stricter_class_orphans,
@@ -375,7 +375,7 @@ struct TrackletEnds<'a> {
 /// join a chain's free end: as the exit before a tracklet that has no predecessor, or the
 /// entry after one that has no successor, each pair under the usual gate and timing.
 /// Classes are tried in ascending id order; the first link found is kept.
-fn link_weak_class_orphans(
+fn link_orphans_as_other_classes(
     ends: &TrackletEnds<'_>,
     weak: impl Fn(usize) -> bool,
     stricter: bool,
@@ -692,11 +692,11 @@ mod tests {
         };
         let drift = SeaDrift::default();
         let mut links = Vec::new();
-        link_weak_class_orphans(&ends, |i| i == 0, false, &mut links, &reid, &drift);
+        link_orphans_as_other_classes(&ends, |i| i == 0, false, &mut links, &reid, &drift);
         assert_eq!(links, vec![(0, 1)]);
 
         let mut certain = Vec::new();
-        link_weak_class_orphans(&ends, |_| false, false, &mut certain, &reid, &drift);
+        link_orphans_as_other_classes(&ends, |_| false, false, &mut certain, &reid, &drift);
         assert!(certain.is_empty());
 
         let boat = TrackEnd {
@@ -710,7 +710,7 @@ mod tests {
             ..ends
         };
         let mut as_boat = Vec::new();
-        link_weak_class_orphans(&ends, |i| i == 0, false, &mut as_boat, &reid, &drift);
+        link_orphans_as_other_classes(&ends, |i| i == 0, false, &mut as_boat, &reid, &drift);
         assert!(as_boat.is_empty(), "a boat is not offered as a swimmer");
     }
 
@@ -752,12 +752,12 @@ mod tests {
             spans: &spans,
         };
         let mut links = vec![(0, 2)];
-        link_weak_class_orphans(&ends, |_| false, true, &mut links, &reid, &drift);
+        link_orphans_as_other_classes(&ends, |_| false, true, &mut links, &reid, &drift);
         links.sort_unstable();
         assert_eq!(links, vec![(0, 1), (1, 2)]);
 
         let mut off = vec![(0, 2)];
-        link_weak_class_orphans(&ends, |_| false, false, &mut off, &reid, &drift);
+        link_orphans_as_other_classes(&ends, |_| false, false, &mut off, &reid, &drift);
         assert_eq!(off, vec![(0, 2)]);
 
         // Colours that disagree, or none: no change of class.
@@ -771,7 +771,7 @@ mod tests {
                 ..ends
             };
             let mut kept = vec![(0, 2)];
-            link_weak_class_orphans(&other, |_| false, true, &mut kept, &reid, &drift);
+            link_orphans_as_other_classes(&other, |_| false, true, &mut kept, &reid, &drift);
             assert_eq!(kept, vec![(0, 2)], "{appearance:?}");
         }
 
@@ -783,7 +783,7 @@ mod tests {
             spans: &spans[..2],
         };
         let mut free = Vec::new();
-        link_weak_class_orphans(&two, |_| false, true, &mut free, &reid, &drift);
+        link_orphans_as_other_classes(&two, |_| false, true, &mut free, &reid, &drift);
         assert_eq!(free, vec![(0, 1)]);
 
         // A boat chain with a swimmer-classed tracklet in its gap: left alone.
@@ -796,7 +796,7 @@ mod tests {
             ..ends
         };
         let mut kept = vec![(0, 2)];
-        link_weak_class_orphans(&boats, |_| false, true, &mut kept, &reid, &drift);
+        link_orphans_as_other_classes(&boats, |_| false, true, &mut kept, &reid, &drift);
         assert_eq!(kept, vec![(0, 2)], "a swimmer is not offered as a boat");
     }
 
