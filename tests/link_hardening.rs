@@ -543,9 +543,20 @@ async fn streams_are_requested_after_first_contact_and_after_a_reboot() {
         asked += requests(&autopilot.receive_for(Duration::from_millis(100)));
     }
     assert_eq!(asked, 0, "asked again while the stream flowed");
-    // Reboot: boot time back to 1 s: asked again at once.
+    // Reboot: boot time back to 1 s and on from there: asked again as soon as the new
+    // timeline held alone for half a second (a lone stamp near zero is no reboot).
     flow(&autopilot, 1000);
-    let got = autopilot.receive_for(Duration::from_millis(400));
+    assert_eq!(
+        requests(&autopilot.receive_for(Duration::from_millis(100))),
+        0,
+        "one stamp near zero taken for a reboot"
+    );
+    let mut got = Vec::new();
+    for k in 1..=6 {
+        flow(&autopilot, 1000 + k * 100);
+        got.extend(autopilot.receive_for(Duration::from_millis(100)));
+    }
+    got.extend(autopilot.receive_for(Duration::from_millis(300)));
     let stats = link.close().await;
     assert_eq!(
         requests(&got),
@@ -553,4 +564,77 @@ async fn streams_are_requested_after_first_contact_and_after_a_reboot() {
         "not asked again after the reboot: {stats:?}"
     );
     assert_eq!(stats.autopilot_restarts, 1, "{stats:?}");
+}
+
+/// Issue 39, item 5: a flood of 5,000 commands a second was answered at 2,000 replies a
+/// second and logged line by line. Commands beyond a sender's budget are dropped unanswered
+/// and counted; another sender's command still gets its answer.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_command_flood_is_answered_within_the_senders_budget() {
+    use mgmot::mavlink::link::command_budget::{COMMANDS_PER_S, COMMAND_BURST};
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let (link, _sender, _events) = start(settings(format!("udpin:127.0.0.1:{port}")));
+    let gcs = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    gcs.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    // An unknown command (id 31999) the link answers itself, from two senders.
+    let unknown = |from: (u8, u8)| {
+        let known = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+            target_system: 1,
+            target_component: 191,
+            ..Default::default()
+        });
+        let mut raw = MAVLinkV2MessageRaw::new();
+        raw.serialize_message(
+            MavHeader {
+                system_id: u32::from(from.0),
+                component_id: from.1,
+                sequence: 0,
+            },
+            &known,
+        );
+        let len = usize::from(raw.payload_length());
+        let b = raw.as_mut_slice();
+        b[10 + 28..10 + 30].copy_from_slice(&31999u16.to_le_bytes());
+        let crc = mavlink_core::calculate_crc(&b[1..10 + len], COMMAND_LONG_DATA::EXTRA_CRC);
+        b[10 + len..12 + len].copy_from_slice(&crc.to_le_bytes());
+        raw.raw_bytes().to_vec()
+    };
+    let (flood, operator) = (unknown((255, 190)), unknown((254, 1)));
+    let started = std::time::Instant::now();
+    let mut sent = 0u64;
+    // 5,000 a second for 2 s, the operator's one command in the middle.
+    while started.elapsed() < Duration::from_secs(2) {
+        for _ in 0..50 {
+            gcs.send(addr, &flood);
+            sent += 1;
+        }
+        if sent == 5_000 {
+            gcs.send(addr, &operator);
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    let got = gcs.receive_for(Duration::from_millis(500));
+    let stats = link.close().await;
+    let acks_to = |to: (u8, u8)| {
+        got.iter()
+            .filter(|(h, _, p, _)| h.component_id == 191 && p.len() >= 10 && (p[8], p[9]) == to)
+            .count() as f64
+    };
+    let budget = COMMAND_BURST + COMMANDS_PER_S * (elapsed + 0.5);
+    assert!(sent >= 5_000, "sent only {sent}");
+    assert!(
+        acks_to((255, 190)) <= budget,
+        "{} answers to {sent} flooding commands in {elapsed:.1} s (budget {budget})",
+        acks_to((255, 190))
+    );
+    assert!(acks_to((255, 190)) >= COMMAND_BURST, "{stats:?}");
+    assert_eq!(acks_to((254, 1)), 1.0, "the operator's command was not answered");
+    assert!(
+        stats.commands_over_budget as f64 >= sent as f64 - budget,
+        "{stats:?}"
+    );
 }

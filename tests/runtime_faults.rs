@@ -19,10 +19,15 @@ use std::time::{Duration, Instant};
 /// A config for `mgmot run` reading frames from `socket`, detections replayed from an empty
 /// file (no detector needed: these tests are about the frame path).
 fn config(dir: &TestDir, socket: &Path) -> PathBuf {
+    config_with(dir, socket, &dir.empty_detections())
+}
+
+/// [`config`] with the detections replayed from `detections`.
+fn config_with(dir: &TestDir, socket: &Path, detections: &Path) -> PathBuf {
     let mut c = run_config(
         &format!("udpin:127.0.0.1:{}", free_udp_port()),
         socket,
-        &dir.empty_detections(),
+        detections,
     );
     let FramesConfig::Sim {
         frame_timeout_ms,
@@ -67,10 +72,15 @@ fn accept(listener: &UnixListener, within: Duration) -> UnixStream {
 /// Sends frames `0..n` (their own numbering), 64x36, 30 fps stamps; a failed write fails
 /// the test with the log of mgmot.
 fn send_frames(s: &mut UnixStream, n: u64, mgmot: &Proc) {
+    send_frames_from(s, n, 1_000_000, mgmot);
+}
+
+/// [`send_frames`] with the first frame stamped `first_us` (the source's clock).
+fn send_frames_from(s: &mut UnixStream, n: u64, first_us: u64, mgmot: &Proc) {
     let (w, h) = (64u32, 36u32);
     let px = vec![90u8; (w * h * 3) as usize];
     for k in 0..n {
-        let hdr = FrameHeader::rgb24(k, 1_000_000 + k * 33_333, w, h);
+        let hdr = FrameHeader::rgb24(k, first_us + k * 33_333, w, h);
         if let Err(e) = s.write_all(&hdr.encode()).and_then(|()| s.write_all(&px)) {
             panic!("frame {k}: {e}; mgmot: {}", mgmot.log());
         }
@@ -107,6 +117,57 @@ fn a_cut_stream_is_reconnected_and_restarted_numbering_is_tracked() {
     assert_eq!(st["tracker_errors"], 0, "{st}");
     assert_eq!(st["frames_captured"], 40, "{st}");
     assert!(st["frames_processed"].as_u64().unwrap() >= 20, "{st}");
+}
+
+/// Two sessions of 90 frames from a source whose second session's clock starts at
+/// `second_us` (the first's at 100 s), one swimmer in every frame; the run's stats.
+fn two_sessions(second_us: u64) -> serde_json::Value {
+    let dir = TestDir::new();
+    let socket = dir.join("frames.sock");
+    let listener = UnixListener::bind(&socket).unwrap();
+    let stats_path = dir.join("stats.json");
+    let boxes: Vec<String> = (0..=400)
+        .map(|id| {
+            format!(r#"{{"image_id":{id},"category_id":1,"bbox":[20,10,6,6],"score":0.9}}"#)
+        })
+        .collect();
+    let dets = dir.write("dets.json", format!("[{}]", boxes.join(",")));
+    let cfg = config_with(&dir, &socket, &dets);
+    let mut mgmot = mgmot_run(&cfg, Some(&stats_path)).spawn_logged(dir.join("mgmot.log"));
+    let mut s = accept(&listener, Duration::from_secs(20));
+    send_frames_from(&mut s, 90, 100_000_000, &mgmot);
+    drop(s);
+    let mut s = accept(&listener, Duration::from_secs(10));
+    send_frames_from(&mut s, 90, second_us, &mgmot);
+    s.write_all(&end_of_stream()).unwrap();
+    let status = mgmot
+        .wait_within(Duration::from_secs(20))
+        .expect("mgmot did not end");
+    assert!(status.success(), "{status:?}: {}", mgmot.log());
+    stats(&stats_path)
+}
+
+/// Issue 39, item 2: a frame source whose clock goes back (a restarted camera or simulator)
+/// gave no MGMOT_TRACK for as long as its clock was behind, with nothing logged. The
+/// tracker's clock bridges the jump: the second session reports as many tracks as when the
+/// clock runs on, and the jump is counted.
+#[test]
+fn a_frame_source_whose_clock_goes_back_keeps_reporting_tracks() {
+    let control = two_sessions(103_500_000);
+    let back = two_sessions(1_000_000);
+    for st in [&control, &back] {
+        assert_eq!(st["tracker_errors"], 0, "{st}");
+        assert_eq!(st["frames_captured"], 180, "{st}");
+    }
+    let messages = |st: &serde_json::Value| st["track_messages"].as_u64().unwrap_or(0);
+    assert!(messages(&control) >= 8, "control: {control}");
+    assert!(
+        messages(&back) * 10 >= messages(&control) * 9,
+        "{} track messages with the clock going back, {} with it running on",
+        messages(&back),
+        messages(&control)
+    );
+    assert!(back["clock_jumps"].as_u64() >= Some(1), "{back}");
 }
 
 /// Item 8: a frozen source (connected, sending nothing) does not keep SIGTERM from ending

@@ -80,6 +80,22 @@ impl Link {
             .unwrap();
     }
 
+    /// Sends a message as `from` (system, component) in MAVLink `version`, unsigned: a
+    /// forger, or a stray message, with the autopilot's own ids.
+    fn send_as(&self, msg: &MavMessage, from: (u8, u8), version: MavlinkVersion) {
+        let header = MavHeader {
+            system_id: u32::from(from.0),
+            component_id: from.1,
+            sequence: 0,
+        };
+        let mut buf = Vec::new();
+        mavlink_core::write_versioned_msg(&mut buf, version, header, msg).unwrap();
+        self.relay
+            .to_mgmot
+            .send_to(&buf, ("127.0.0.1", self.relay.mgmot_port))
+            .unwrap();
+    }
+
     fn finish(self) -> Vec<Sent> {
         self.relay.finish()
     }
@@ -683,4 +699,208 @@ fn telemetry_dropout_is_announced_once_and_tracking_goes_on() {
             && count("end_to_end") <= stats["track_messages"].as_u64().unwrap_or(0),
         "{stats}"
     );
+}
+
+/// The simulated autopilot's ids (the scenario's system id, MAV_COMP_ID_AUTOPILOT1) and its
+/// gimbal's.
+const AUTOPILOT: (u8, u8) = (1, 1);
+const GIMBAL: (u8, u8) = (1, 154);
+
+/// GLOBAL_POSITION_INT stamped `time_boot_ms` at (lat, lon, alt AMSL).
+fn position(time_boot_ms: u32, lat: f64, lon: f64, alt_m: f64) -> MavMessage {
+    MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+        time_boot_ms,
+        lat: (lat * 1e7) as i32,
+        lon: (lon * 1e7) as i32,
+        alt: (alt_m * 1e3) as i32,
+        relative_alt: 30_000,
+        ..Default::default()
+    })
+}
+
+fn geo_valid(t: &MGMOT_TRACK_DATA) -> bool {
+    t.flags
+        .contains(MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID)
+}
+
+/// The tracks mgmot sent from `sent[from..]`.
+fn tracks_in(sent: &[Sent], from: usize) -> Vec<MGMOT_TRACK_DATA> {
+    sent[from..]
+        .iter()
+        .filter_map(|s| match &s.msg {
+            MavMessage::MGMOT_TRACK(t) => Some(t.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The autopilot's clock now, as mgmot's latest track says (its frame's exposure time, ms
+/// since the simulated autopilot's boot), and the latest geolocated position.
+fn autopilot_now(link: &Link) -> Option<(u32, f64, f64)> {
+    let sent = link.since(0);
+    sent.iter().rev().find_map(|s| match &s.msg {
+        MavMessage::MGMOT_TRACK(t) if geo_valid(t) => Some((
+            (t.time_usec / 1000) as u32,
+            f64::from(t.lat) * 1e-7,
+            f64::from(t.lon) * 1e-7,
+        )),
+        _ => None,
+    })
+}
+
+/// WARN lines in mgmot's log.
+fn warnings(log: &str) -> usize {
+    log.lines().filter(|l| l.contains(" WARN ")).count()
+}
+
+/// Issue 39, item 3: stray or forged MAVLink 1 positions with the autopilot's ids, stamped
+/// near zero every 100 ms, counted as an autopilot reboot each: no report geolocated, a WARN
+/// line and a stream request per message. They are stale stamps now: not used, counted, and
+/// tracking goes on geolocated.
+#[test]
+fn forged_positions_stamped_near_zero_are_no_reboot() {
+    let s = setup(TestDir::new(), "calm_baseline", 22.0, |_| {});
+    let link = Link::start(s.mgmot_port);
+    let mut sim = start_sim(&s, &link);
+    let mut mgmot = start_mgmot(&s);
+    let (first, _) = link
+        .wait_for(0, Duration::from_secs(60), |m| {
+            matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t))
+        })
+        .unwrap_or_else(|| panic!("no geolocated track; mgmot: {}", mgmot.log()));
+    let (_, lat, lon) = autopilot_now(&link).unwrap();
+    let from = link.mark().max(first);
+    let forging = std::time::Instant::now();
+    let mut k = 0u32;
+    while forging.elapsed() < Duration::from_secs(10) {
+        link.send_as(&position(k * 100, lat, lon, 430.0), AUTOPILOT, MavlinkVersion::V1);
+        k += 1;
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let until = link.mark();
+    sim.wait_within(Duration::from_secs(90))
+        .expect("the simulator did not finish");
+    let status = mgmot.stop(STOP_LIMIT);
+    let sent = link.finish();
+    let log = mgmot.log();
+    assert!(status.success(), "mgmot: {log}");
+    let during = tracks_in(&sent[..until], from);
+    let geolocated = during.iter().filter(|t| geo_valid(t)).count();
+    assert!(
+        during.len() >= 20 && geolocated * 10 >= during.len() * 9,
+        "{geolocated} of {} reports geolocated while forged stamps came; mgmot: {log}",
+        during.len()
+    );
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(s.dir.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["telemetry"]["autopilot_reboots"], 0, "{stats}");
+    assert_eq!(stats["link"]["autopilot_restarts"], 0, "{stats}");
+    assert!(
+        stats["telemetry"]["stale_stamps"].as_u64() >= Some(u64::from(k) * 8 / 10),
+        "{k} forged: {stats}"
+    );
+    assert!(
+        stats["link"]["stream_requests"].as_u64() <= Some(30),
+        "{stats}"
+    );
+    assert!(warnings(&log) <= 10, "{} WARN lines: {log}", warnings(&log));
+}
+
+/// Issue 39, item 4: impossible telemetry with the autopilot's own ids was used as it came
+/// (tracks kilometres off, new ids, nothing said). Positions 50 km off among the true ones,
+/// fuzzed positions anywhere on earth, a skewed gimbal quaternion and an altitude of -1000 m,
+/// one after the other for 12 s: every one is refused, the operator is told once when it
+/// starts and once when telemetry is plausible again, and no geolocated report moves off the
+/// truth.
+#[test]
+fn implausible_telemetry_is_refused_reported_once_and_moves_no_track() {
+    let s = setup(TestDir::new(), "calm_baseline", 30.0, |_| {});
+    let truth = read_truth(&s.dir.join("dets_gt/world.csv"));
+    let link = Link::start(s.mgmot_port);
+    let mut sim = start_sim(&s, &link);
+    let mut mgmot = start_mgmot(&s);
+    link.wait_for(0, Duration::from_secs(60), |m| {
+        matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t))
+    })
+    .unwrap_or_else(|| panic!("no geolocated track; mgmot: {}", mgmot.log()));
+    let (t0_ms, lat, lon) = autopilot_now(&link).unwrap();
+    let forging = std::time::Instant::now();
+    let mut fuzz = 0x2545_f491_4f6c_dd1du64;
+    let mut forged = 0u64;
+    while forging.elapsed() < Duration::from_secs(12) {
+        let e = forging.elapsed();
+        let now_ms = t0_ms + e.as_millis() as u32;
+        let msg = match e.as_secs() {
+            // 50 km north, interleaved with the true positions.
+            0..=2 => position(now_ms, lat + 0.45, lon, 430.0),
+            // Anywhere on earth.
+            3..=5 => {
+                fuzz ^= fuzz << 13;
+                fuzz ^= fuzz >> 7;
+                fuzz ^= fuzz << 17;
+                let lat = (fuzz % 17_000) as f64 / 100.0 - 85.0;
+                let lon = ((fuzz >> 20) % 35_000) as f64 / 100.0 - 175.0;
+                position(now_ms, lat, lon, (fuzz >> 40) as f64 % 5000.0)
+            }
+            // A gimbal quaternion that is no rotation (norm 1.36).
+            6..=8 => MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+                time_boot_ms: now_ms,
+                q: [1.3, 0.4, 0.0, 0.0],
+                ..Default::default()
+            }),
+            // Under the sea.
+            _ => position(now_ms, lat, lon, -1000.0),
+        };
+        let from = if matches!(msg, MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(_)) {
+            GIMBAL
+        } else {
+            AUTOPILOT
+        };
+        link.send_as(&msg, from, MavlinkVersion::V2);
+        forged += 1;
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    sim.wait_within(Duration::from_secs(90))
+        .expect("the simulator did not finish");
+    let status = mgmot.stop(STOP_LIMIT);
+    let sent = link.finish();
+    let log = mgmot.log();
+    assert!(status.success(), "mgmot: {log}");
+
+    // No geolocated report off the truth (calm_baseline geolocates within a few metres).
+    let tracks = tracks_in(&sent, 0);
+    let mut worst = 0.0f64;
+    for t in tracks.iter().filter(|t| geo_valid(t)) {
+        let t_ms = track_time_ms(t.time_usec);
+        let (lat, lon) = (f64::from(t.lat) * 1e-7, f64::from(t.lon) * 1e-7);
+        let d = truth
+            .iter()
+            .filter(|g| (g.t_ms - t_ms).abs() <= 5)
+            .map(|g| distance_m((lat, lon), (g.lat, g.lon)))
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(d);
+    }
+    assert!(
+        worst < 15.0,
+        "a geolocated report {worst:.0} m from any true object; mgmot: {log}"
+    );
+    // Told once when it started, once when it ended.
+    let texts: Vec<String> = sent
+        .iter()
+        .filter_map(|s| match &s.msg {
+            MavMessage::STATUSTEXT(t) => Some(t.text.to_str().unwrap_or("").to_owned()),
+            _ => None,
+        })
+        .filter(|t| t.contains("telemetry"))
+        .collect();
+    let refused = texts.iter().filter(|t| t.starts_with("mgmot: telemetry refused")).count();
+    let again = texts.iter().filter(|t| *t == "mgmot: telemetry plausible again").count();
+    assert_eq!((refused, again), (1, 1), "{texts:?}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(s.dir.join("stats.json")).unwrap()).unwrap();
+    assert!(
+        stats["telemetry"]["implausible"].as_u64() >= Some(forged * 8 / 10),
+        "{forged} forged: {stats}"
+    );
+    assert!(warnings(&log) <= 10, "{} WARN lines: {log}", warnings(&log));
 }

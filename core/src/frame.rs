@@ -7,7 +7,7 @@
 //!   compensation.
 //! - [`InputBuilder`]: [`tracker_input`] for consecutive frames, with what it remembers from
 //!   one frame to the next (the local frame, set at the first pose; the previous frame's pose;
-//!   the tracker's clock, forced monotonic). The live runtime and `mgmot replay` both build
+//!   the tracker's clock, [`TrackerClock`]). The live runtime and `mgmot replay` both build
 //!   their inputs with it, which is why a replay reproduces the flight exactly.
 //! - [`geo_fix`]: a track's world state (local NED) -> latitude/longitude on the sea surface,
 //!   with velocity and its horizontal uncertainty, as the outputs report it.
@@ -136,17 +136,127 @@ pub struct GeoSettings {
     pub motion_smoothing: AttitudeSmoothing,
 }
 
+/// How far a frame source's time may disagree with the reference clock between two frames
+/// before the source's clock is taken to have jumped (s). Frames are delivered with jitter of
+/// milliseconds to a few hundred (a stalled camera, a busy machine); a clock that restarted or
+/// jumped disagrees by seconds.
+pub const CLOCK_JUMP_TOLERANCE_S: f64 = 1.0;
+
+/// The smallest step of the tracker's clock when the source's went back and there is no
+/// reference clock to say how much time passed (s).
+pub const CLOCK_MIN_STEP_S: f64 = 1e-3;
+
+/// A jump of the source's clock that [`TrackerClock`] bridged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClockJump {
+    /// The previous frame's source time (s).
+    pub previous_source_s: f64,
+    /// The source time it jumped to (s).
+    pub source_s: f64,
+    /// The tracker's time given to the frame (s).
+    pub tracker_s: f64,
+}
+
+/// The tracker's clock: a frame source's time (the exposure on the autopilot's clock, a file's
+/// timestamps), made continuous. Velocities, Kalman predictions, ReID gaps and report rates all
+/// run on it, so it must never go back, stall or leap, whatever the source does.
+///
+/// It follows the source's clock plus an offset. When a frame's source time disagrees with the
+/// reference clock by more than [`CLOCK_JUMP_TOLERANCE_S`] (the autopilot rebooted and its
+/// clock restarted near zero; a restarted camera or simulator; the clock mapping found
+/// mid-flight), the offset is re-anchored so that the frame's tracker time is the previous
+/// one plus the time the reference clock says passed, and the source's own steps are followed
+/// again from there. The reference is a clock that never restarts: the companion computer's
+/// monotonic clock at each frame's delivery, live. Without one (files), a source time that
+/// goes back re-anchors at [`CLOCK_MIN_STEP_S`] after the previous frame.
+#[derive(Debug, Clone, Default)]
+pub struct TrackerClock {
+    /// Tracker time minus source time (s).
+    offset_s: f64,
+    /// The previous frame: its tracker time and reference time.
+    last: Option<(f64, Option<f64>)>,
+    /// Jumps bridged so far.
+    jumps: u64,
+}
+
+impl TrackerClock {
+    /// Nothing seen yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The tracker's time of a frame whose source time is `source_s` and whose reference time
+    /// is `reference_s` (both s); the jump, when this frame's source clock jumped. A
+    /// non-finite source time is returned as it is (the tracker refuses it) and changes
+    /// nothing.
+    pub fn time(&mut self, source_s: f64, reference_s: Option<f64>) -> (f64, Option<ClockJump>) {
+        if !source_s.is_finite() {
+            return (source_s, None);
+        }
+        let candidate = source_s + self.offset_s;
+        let Some((last_s, last_ref)) = self.last else {
+            self.last = Some((candidate, reference_s));
+            return (candidate, None);
+        };
+        let elapsed_ref = match (reference_s, last_ref) {
+            (Some(now), Some(then)) if now.is_finite() && then.is_finite() => Some(now - then),
+            _ => None,
+        };
+        let jumped = candidate < last_s
+            || elapsed_ref
+                .is_some_and(|e| (candidate - last_s - e).abs() > CLOCK_JUMP_TOLERANCE_S);
+        if !jumped {
+            self.last = Some((candidate, reference_s));
+            return (candidate, None);
+        }
+        let tracker_s = last_s + elapsed_ref.unwrap_or(0.0).max(CLOCK_MIN_STEP_S);
+        let jump = ClockJump {
+            previous_source_s: last_s - self.offset_s,
+            source_s,
+            tracker_s,
+        };
+        self.offset_s = tracker_s - source_s;
+        self.last = Some((tracker_s, reference_s));
+        self.jumps += 1;
+        (tracker_s, Some(jump))
+    }
+
+    /// Jumps of the source's clock bridged so far.
+    pub fn jumps(&self) -> u64 {
+        self.jumps
+    }
+}
+
 /// Builds the tracker's inputs of consecutive frames, remembering what the next frame needs:
 /// the geolocator (its local frame is the nadir point of the first frame with a pose), the
 /// [`CameraMotion`] state (the pose of the last frame the tracker took: motion compensation
-/// only between consecutive frame indices) and the tracker's clock (forced monotonic: a source that restarted
-/// continues just after the last frame's time).
+/// only between consecutive frame indices) and the tracker's clock ([`TrackerClock`]).
 #[derive(Debug, Clone)]
 pub struct InputBuilder {
     geo: GeoSettings,
     geolocator: Option<Geolocator>,
     motion: CameraMotion,
-    last_time_s: Option<f64>,
+    clock: TrackerClock,
+}
+
+/// A frame's time as its source gives it (s), and the reference clock's at the frame (s;
+/// `None` without one): see [`TrackerClock`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameClock {
+    /// The source's time: the exposure on the autopilot clock, a file's timestamp.
+    pub source_s: f64,
+    /// A clock that never restarts (the companion's monotonic clock at delivery), live.
+    pub reference_s: Option<f64>,
+}
+
+impl FrameClock {
+    /// A source time without a reference (files, replays).
+    pub fn source(source_s: f64) -> Self {
+        Self {
+            source_s,
+            reference_s: None,
+        }
+    }
 }
 
 impl InputBuilder {
@@ -156,8 +266,13 @@ impl InputBuilder {
             geo,
             geolocator: None,
             motion: CameraMotion::new(geo.motion_smoothing),
-            last_time_s: None,
+            clock: TrackerClock::new(),
         }
+    }
+
+    /// Jumps of the source's clock the tracker's clock bridged so far.
+    pub fn clock_jumps(&self) -> u64 {
+        self.clock.jumps()
     }
 
     /// The geolocator, once a frame had a pose.
@@ -165,23 +280,20 @@ impl InputBuilder {
         self.geolocator.as_ref()
     }
 
-    /// One frame's input: `time_s` is the frame's time on the tracker's clock (made monotonic
-    /// here), `meta` its pose when it has one. Also returns the camera's position in the local
-    /// frame. Call [`InputBuilder::taken`] once the tracker accepted the input. An empty image
-    /// (no camera model) is tracked in the image only.
+    /// One frame's input: `time` is the frame's time (made the tracker's by [`TrackerClock`];
+    /// the input's `time_s` is the result), `meta` its pose when it has one. Also returns the
+    /// camera's position in the local frame, and the source clock's jump when this frame's
+    /// was bridged. Call [`InputBuilder::taken`] once the tracker accepted the input. An empty
+    /// image (no camera model) is tracked in the image only.
     pub fn build(
         &mut self,
         index: u64,
-        time_s: f64,
+        time: FrameClock,
         size: (u32, u32),
         detections: impl IntoIterator<Item = Detection>,
         meta: Option<&FrameMetadata>,
-    ) -> (FrameInput, Option<Vector3<f64>>) {
-        let time_s = match self.last_time_s {
-            Some(last) if time_s < last => last + 1e-3,
-            _ => time_s,
-        };
-        self.last_time_s = Some(time_s);
+    ) -> (FrameInput, Option<Vector3<f64>>, Option<ClockJump>) {
+        let (time_s, jump) = self.clock.time(time.source_s, time.reference_s);
         if let (None, Some(m)) = (&self.geolocator, meta) {
             // A camera model fails only for an empty image: that frame is tracked in the image.
             self.geolocator = CameraModel::from_hfov(size.0, size.1, self.geo.hfov_deg)
@@ -196,6 +308,7 @@ impl InputBuilder {
             return (
                 tracker_input(index, time_s, size, detections, None, None),
                 None,
+                jump,
             );
         };
         let geometry = meta.and_then(|m| g.frame(m).ok());
@@ -209,7 +322,7 @@ impl InputBuilder {
             image_motion,
         );
         let camera_ned = geometry.map(|g| g.pose_in_reference().position_ned);
-        (input, camera_ned)
+        (input, camera_ned, jump)
     }
 
     /// The tracker took frame `index` (the last one built): the next frame's motion
@@ -390,25 +503,114 @@ mod tests {
         };
         let mut b = InputBuilder::new(geo);
         let dets = [detection(100.0)];
-        let (no_pose, cam) = b.build(0, 10.0, (1280, 720), dets, None);
+        let at = FrameClock::source;
+        let (no_pose, cam, _) = b.build(0, at(10.0), (1280, 720), dets, None);
         assert!(no_pose.detections[0].world.is_none() && cam.is_none());
         assert!(b.geolocator().is_none());
         b.taken(0);
-        let (first, cam) = b.build(1, 10.1, (1280, 720), dets, Some(&meta(5.0)));
+        let (first, cam, _) = b.build(1, at(10.1), (1280, 720), dets, Some(&meta(5.0)));
         let reference = b.geolocator().map(|g| g.reference().origin());
         assert_eq!(reference, Some(meta(5.0).nadir_on_water()));
         assert!(first.detections[0].world.is_some() && first.image_motion.is_none());
         assert!(cam.is_some_and(|c| c.x.abs() < 1e-6));
         b.taken(1);
         // Consecutive: motion compensated; the clock going back continues after the last time.
-        let (second, _) = b.build(2, 3.0, (1280, 720), dets, Some(&meta(6.0)));
+        let (second, _, jump) = b.build(2, at(3.0), (1280, 720), dets, Some(&meta(6.0)));
         assert!(second.image_motion.is_some());
         assert!((second.time_s - 10.101).abs() < 1e-9);
+        assert!(jump.is_some_and(|j| j.previous_source_s == 10.1 && j.source_s == 3.0));
         b.taken(2);
-        // A gap in the indices: no motion compensation across it.
-        let (after_gap, _) = b.build(4, 10.3, (1280, 720), dets, Some(&meta(7.0)));
+        // A gap in the indices: no motion compensation across it. The clock follows the
+        // source's steps from the new anchor.
+        let (after_gap, _, jump) = b.build(4, at(3.2), (1280, 720), dets, Some(&meta(7.0)));
         assert!(after_gap.image_motion.is_none());
-        assert_eq!(after_gap.time_s, 10.3);
+        assert!((after_gap.time_s - 10.301).abs() < 1e-9);
+        assert_eq!((jump, b.clock_jumps()), (None, 1));
+    }
+
+    /// Frames at 30 fps whose source time is `source(k)`; the reference clock runs true.
+    fn run_clock(frames: u64, source: impl Fn(u64) -> f64) -> Vec<(f64, bool)> {
+        let mut c = TrackerClock::new();
+        (0..frames)
+            .map(|k| {
+                let (t, jump) = c.time(source(k), Some(1000.0 + k as f64 / 30.0));
+                (t, jump.is_some())
+            })
+            .collect()
+    }
+
+    /// Issue 39, item 1: after an autopilot reboot (the exposure times restart near zero) the
+    /// tracker's clock kept crawling at 1 ms a frame; it must run at the source's pace.
+    #[test]
+    fn after_an_autopilot_reboot_the_clock_runs_at_the_sources_pace() {
+        // 181.4 s on the old boot, then 3 s of silence and the new boot's clock from 0.5 s.
+        let reboot_at = 300u64;
+        let times = run_clock(300 + 5100, |k| {
+            if k < reboot_at {
+                171.4 + k as f64 / 30.0
+            } else {
+                0.5 + (k - reboot_at) as f64 / 30.0
+            }
+        });
+        let jumps: Vec<usize> = (0..times.len()).filter(|&k| times[k].1).collect();
+        assert_eq!(jumps, vec![reboot_at as usize]);
+        // Every step is a frame period, across the reboot too.
+        for w in times.windows(2) {
+            assert!((w[1].0 - w[0].0 - 1.0 / 30.0).abs() < 1e-6, "{w:?}");
+        }
+        // 170 s of flight after the reboot are 170 s of tracker time (was 4.8 s).
+        let after = times[times.len() - 1].0 - times[reboot_at as usize].0;
+        assert!((after - 5099.0 / 30.0).abs() < 1e-6, "{after}");
+    }
+
+    /// Issue 39, item 2: a frame source whose clock went back (a restarted camera or
+    /// simulator), or leapt forward (the clock mapping found mid-flight), is bridged once.
+    #[test]
+    fn a_source_clock_that_goes_back_or_leaps_is_bridged_once() {
+        let times = run_clock(900, |k| match k {
+            0..300 => k as f64 / 30.0,
+            300..600 => 40.0 + k as f64 / 30.0,
+            _ => (k - 600) as f64 / 30.0,
+        });
+        assert_eq!(times.iter().filter(|t| t.1).count(), 2);
+        for w in times.windows(2) {
+            assert!((w[1].0 - w[0].0 - 1.0 / 30.0).abs() < 1e-6, "{w:?}");
+        }
+    }
+
+    #[test]
+    fn jitter_within_the_tolerance_is_the_sources_own() {
+        let mut c = TrackerClock::new();
+        assert_eq!(c.time(5.0, Some(100.0)), (5.0, None));
+        // Delivered 0.6 s late (a stalled camera catching up): the exposure time is kept.
+        assert_eq!(c.time(5.1, Some(100.7)), (5.1, None));
+        assert_eq!(c.time(5.2, Some(100.72)), (5.2, None));
+        // A NaN changes nothing.
+        assert!(c.time(f64::NAN, Some(100.75)).0.is_nan());
+        assert_eq!(c.time(5.3, Some(100.8)), (5.3, None));
+    }
+
+    proptest::proptest! {
+        /// Whatever the source does, the tracker's clock never goes back, and its steps are the
+        /// source's or, when those disagree with the reference, the reference's.
+        #[test]
+        fn the_clock_never_goes_back(
+            steps in proptest::collection::vec((-500.0f64..500.0, 0.0f64..2.0, proptest::bool::ANY), 1..200)
+        ) {
+            let mut c = TrackerClock::new();
+            let (mut source, mut reference) = (100.0, 0.0);
+            let mut last: Option<f64> = None;
+            for (source_step, reference_step, with_reference) in steps {
+                source += source_step;
+                reference += reference_step;
+                let r = with_reference.then_some(reference);
+                let (t, _) = c.time(source, r);
+                if let Some(l) = last {
+                    proptest::prop_assert!(t >= l, "{t} < {l}");
+                }
+                last = Some(t);
+            }
+        }
     }
 
     #[test]

@@ -8,6 +8,8 @@
 pub enum Condition {
     /// Position telemetry from the autopilot (without it there is no geolocation).
     Telemetry,
+    /// Telemetry that cannot be true (refused by the pose gate; tracks are not moved by it).
+    Plausibility,
     /// The frame source.
     Camera,
     /// The detector (a failing detector means no new detections).
@@ -19,6 +21,7 @@ impl Condition {
     pub fn lost_text(self) -> &'static str {
         match self {
             Condition::Telemetry => "mgmot: no telemetry, geolocation invalid",
+            Condition::Plausibility => "mgmot: telemetry refused",
             Condition::Camera => "mgmot: camera lost",
             Condition::Detector => "mgmot: detector error",
         }
@@ -28,6 +31,7 @@ impl Condition {
     pub fn back_text(self) -> &'static str {
         match self {
             Condition::Telemetry => "mgmot: telemetry ok",
+            Condition::Plausibility => "mgmot: telemetry plausible again",
             Condition::Camera => "mgmot: camera back",
             Condition::Detector => "mgmot: detector ok",
         }

@@ -9,7 +9,7 @@ use clap::Args as ClapArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use mgmot::config::Config;
 use mgmot::formats::input::{self, InputKind};
-use mgmot::frame::{GeoSettings, InputBuilder};
+use mgmot::frame::{FrameClock, GeoSettings, InputBuilder};
 use mgmot::geo::AttitudeSmoothing;
 use mgmot::record::format::FrameRecord;
 use mgmot::record::Flight;
@@ -265,9 +265,10 @@ fn rebuild_inputs(
             .transpose()
             .with_context(|| format!("frame {}: recorded pose", f.frame))?;
         let detections = f.detections.iter().map(|d| Detection { world: None, ..*d });
-        let (input, _) = builder.build(
+        // The recorded times are the tracker's own (already continuous): replayed as they are.
+        let (input, _, _) = builder.build(
             f.frame,
-            f.time_s,
+            FrameClock::source(f.time_s),
             (f.width_px, f.height_px),
             detections,
             meta.as_ref(),

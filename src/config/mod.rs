@@ -30,7 +30,7 @@ pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings
 pub use outputs::{OutputSettings, OutputsConfig};
 pub use problems::{Problem, Problems};
 pub use recording::{RecordingConfig, RecordingSettings};
-pub use telemetry::{GimbalReport, TelemetryConfig, TelemetrySettings};
+pub use telemetry::{GimbalReport, PlausibilityConfig, TelemetryConfig, TelemetrySettings};
 
 use crate::track::TrackerParams;
 use serde::{Deserialize, Serialize};

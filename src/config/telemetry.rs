@@ -1,6 +1,7 @@
 //! `[telemetry]`: how telemetry is turned into a camera pose per frame.
 
 use super::problems::{millis, Problems};
+use crate::telemetry::PlausibilityLimits;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -27,6 +28,83 @@ pub struct TelemetryConfig {
     /// attitude, read as its flags say) or `servo_body_frame` (ArduPilot's servo mount,
     /// `MNT1_TYPE 1`: the servo angles relative to the vehicle body, whatever the flags say).
     pub gimbal_report: GimbalReport,
+    /// `[telemetry.plausibility]`: what the vehicle can do; samples beyond it are refused.
+    pub plausibility: PlausibilityConfig,
+}
+
+/// `[telemetry.plausibility]`: telemetry that cannot be true is refused (counted, reported to
+/// the operator once per episode) and never moves a track. See `mgmot_core::telemetry`'s
+/// `PoseGate`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlausibilityConfig {
+    /// Fastest horizontal speed of the vehicle (m/s).
+    pub max_speed_mps: f64,
+    /// Fastest climb or descent (m/s).
+    pub max_vertical_speed_mps: f64,
+    /// Largest acceleration (m/s²), between reported velocities.
+    pub max_accel_mps2: f64,
+    /// Furthest the vehicle flies from home (m).
+    pub max_distance_from_home_m: f64,
+    /// Lowest height above the sea surface (m; negative: below it, for GNSS altitude error).
+    pub min_height_above_water_m: f64,
+    /// Highest height above home (m).
+    pub max_height_above_home_m: f64,
+}
+
+impl Default for PlausibilityConfig {
+    fn default() -> Self {
+        let d = PlausibilityLimits::default();
+        Self {
+            max_speed_mps: d.max_speed_mps,
+            max_vertical_speed_mps: d.max_vertical_speed_mps,
+            max_accel_mps2: d.max_accel_mps2,
+            max_distance_from_home_m: d.max_distance_from_home_m,
+            min_height_above_water_m: d.min_height_above_water_m,
+            max_height_above_home_m: d.max_height_above_home_m,
+        }
+    }
+}
+
+impl PlausibilityConfig {
+    fn validate(&self, p: &mut Problems) -> Option<PlausibilityLimits> {
+        let key = |k: &str| format!("telemetry.plausibility.{k}");
+        let max_speed_mps = p.within_open(&key("max_speed_mps"), self.max_speed_mps, 0.0, 1000.0);
+        let max_vertical_speed_mps = p.within_open(
+            &key("max_vertical_speed_mps"),
+            self.max_vertical_speed_mps,
+            0.0,
+            1000.0,
+        );
+        let max_accel_mps2 =
+            p.within_open(&key("max_accel_mps2"), self.max_accel_mps2, 0.0, 1000.0);
+        let max_distance_from_home_m = p.within_open(
+            &key("max_distance_from_home_m"),
+            self.max_distance_from_home_m,
+            0.0,
+            20_000_000.0,
+        );
+        let min_height_above_water_m = p.within_closed(
+            &key("min_height_above_water_m"),
+            self.min_height_above_water_m,
+            -1000.0,
+            0.0,
+        );
+        let max_height_above_home_m = p.within_open(
+            &key("max_height_above_home_m"),
+            self.max_height_above_home_m,
+            0.0,
+            20_000.0,
+        );
+        Some(PlausibilityLimits {
+            max_speed_mps: max_speed_mps?,
+            max_vertical_speed_mps: max_vertical_speed_mps?,
+            max_accel_mps2: max_accel_mps2?,
+            max_distance_from_home_m: max_distance_from_home_m?,
+            min_height_above_water_m: min_height_above_water_m?,
+            max_height_above_home_m: max_height_above_home_m?,
+        })
+    }
 }
 
 /// What a gimbal attitude report (GIMBAL_DEVICE_ATTITUDE_STATUS, MOUNT_STATUS) means.
@@ -53,6 +131,7 @@ impl Default for TelemetryConfig {
             lost_after_ms: 2000.0,
             fixed_mount_pitch_deg: None,
             gimbal_report: GimbalReport::AsFlagged,
+            plausibility: PlausibilityConfig::default(),
         }
     }
 }
@@ -72,6 +151,8 @@ pub struct TelemetrySettings {
     pub fixed_mount_pitch_deg: Option<f64>,
     /// What the gimbal's attitude report means.
     pub gimbal_report: GimbalReport,
+    /// What the vehicle can do: samples beyond it are refused.
+    pub plausibility: PlausibilityLimits,
 }
 
 impl TelemetryConfig {
@@ -115,7 +196,9 @@ impl TelemetryConfig {
             "must be in -90..=90",
             pitch,
         );
+        let plausibility = self.plausibility.validate(p);
         Some(TelemetrySettings {
+            plausibility: plausibility?,
             max_pose_age: max_pose_age?,
             camera_latency: camera_latency?,
             water_level_amsl_m: water_level_amsl_m?,

@@ -16,10 +16,11 @@ use super::encode::{
 use super::link::{Link, LinkError, LinkEvent, LinkSender, LinkSettings, OnSent, Received};
 use crate::geo::Geodetic;
 use crate::health::{Level, Notice};
+use crate::logging::LogThrottle;
 use crate::operator::{CommandResult, Request};
 use crate::report::{TrackReport, TrackingStatus};
 use crate::telemetry::{
-    AttitudeSample, AutopilotTimeUs, CompanionTimeUs, GimbalSample, PositionSample,
+    AttitudeSample, AutopilotTimeUs, CompanionTimeUs, GimbalSample, PositionFix,
 };
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -30,8 +31,8 @@ use tokio::sync::mpsc;
 pub enum TelemetryUpdate {
     /// The vehicle's position (GLOBAL_POSITION_INT), arrived at `at`.
     Position {
-        /// The sample, on the autopilot clock.
-        sample: PositionSample,
+        /// The sample, on the autopilot clock, with its velocity.
+        fix: PositionFix,
         /// Arrival time.
         at: CompanionTimeUs,
     },
@@ -44,7 +45,14 @@ pub enum TelemetryUpdate {
     },
     /// The gimbal's attitude with a time of its own (GIMBAL_DEVICE_ATTITUDE_STATUS,
     /// MOUNT_ORIENTATION).
-    Gimbal(GimbalSample),
+    Gimbal {
+        /// The attitude (normalised).
+        sample: GimbalSample,
+        /// The quaternion's norm as sent (`None`: sent as angles).
+        quaternion_norm: Option<f64>,
+        /// Arrival time.
+        at: CompanionTimeUs,
+    },
     /// A gimbal attitude without a time of its own (MOUNT_STATUS): its `time` is to be the
     /// arrival time `at` on the autopilot clock, once that clock is known.
     GimbalAtArrival {
@@ -113,6 +121,7 @@ pub fn start(
         system_id,
         component_id,
         commands_need_signature,
+        unsigned_log: LogThrottle::default(),
     };
     Ok((link, inbox, outputs))
 }
@@ -125,6 +134,8 @@ pub struct Inbox {
     system_id: u8,
     component_id: u8,
     commands_need_signature: bool,
+    /// "Unsigned command refused" is logged at most every `LOG_EVERY`.
+    unsigned_log: LogThrottle,
 }
 
 impl Inbox {
@@ -153,7 +164,7 @@ impl Inbox {
 
     /// One message: telemetry and operator requests go to the pipeline, the rest is answered
     /// here or ignored.
-    fn translate(&self, r: &Received) -> Option<LinkInput> {
+    fn translate(&mut self, r: &Received) -> Option<LinkInput> {
         let at = r.at;
         if let Some(sample) = decode_mount_status(&r.message, AutopilotTimeUs(0)) {
             return Some(LinkInput::Telemetry(TelemetryUpdate::GimbalAtArrival {
@@ -168,9 +179,16 @@ impl Inbox {
             self.system_id,
             self.component_id,
         )? {
-            Incoming::Position(sample) => telemetry(TelemetryUpdate::Position { sample, at }),
+            Incoming::Position(fix) => telemetry(TelemetryUpdate::Position { fix, at }),
             Incoming::Attitude(sample) => telemetry(TelemetryUpdate::Attitude { sample, at }),
-            Incoming::Gimbal(g) => telemetry(TelemetryUpdate::Gimbal(g)),
+            Incoming::Gimbal {
+                sample,
+                quaternion_norm,
+            } => telemetry(TelemetryUpdate::Gimbal {
+                sample,
+                quaternion_norm,
+                at,
+            }),
             Incoming::Home(h) => telemetry(TelemetryUpdate::Home(h)),
             c if c.is_command() => self.command(c, r),
             _ => None,
@@ -178,18 +196,21 @@ impl Inbox {
     }
 
     /// A command: refused unsigned (when signing is on), answered here, or handed on.
-    fn command(&self, c: Incoming, r: &Received) -> Option<LinkInput> {
+    fn command(&mut self, c: Incoming, r: &Received) -> Option<LinkInput> {
         let reply = ReplyTo {
             mav_cmd: c.mav_cmd()?,
             system: r.system_id,
             component: r.component_id,
         };
         if self.commands_need_signature && !r.signed {
-            tracing::warn!(
-                from_system = r.system_id,
-                from_component = r.component_id,
-                "unsigned command refused (signing is on)"
-            );
+            if let Some(suppressed) = self.unsigned_log.allow() {
+                tracing::warn!(
+                    from_system = r.system_id,
+                    from_component = r.component_id,
+                    suppressed,
+                    "unsigned command refused (signing is on)"
+                );
+            }
             self.outputs.ack(reply, AckResult::Denied);
             return None;
         }

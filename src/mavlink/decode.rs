@@ -3,9 +3,9 @@
 use super::dialect::{self, GimbalDeviceFlags, MavCmd, MavMessage, CAMERA_INFORMATION_DATA};
 use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::Geodetic;
-use crate::telemetry::{AttitudeSample, AutopilotTimeUs, GimbalSample, PositionSample};
+use crate::telemetry::{AttitudeSample, AutopilotTimeUs, GimbalSample, PositionFix, PositionSample};
 use mavlink_core::MessageData as _;
-use nalgebra::{Quaternion, UnitQuaternion};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// An operator's camera-tracking command (MAV_CMD_CAMERA_TRACK_*), in normalised image
 /// coordinates (0..1, top-left origin) as the commands define them.
@@ -41,12 +41,17 @@ pub enum CameraCommand {
 pub enum Incoming {
     /// The autopilot is alive (HEARTBEAT from an autopilot component).
     AutopilotHeartbeat,
-    /// GLOBAL_POSITION_INT.
-    Position(PositionSample),
+    /// GLOBAL_POSITION_INT, with its velocity.
+    Position(PositionFix),
     /// ATTITUDE.
     Attitude(AttitudeSample),
     /// GIMBAL_DEVICE_ATTITUDE_STATUS, MOUNT_ORIENTATION or MOUNT_STATUS.
-    Gimbal(GimbalSample),
+    Gimbal {
+        /// The attitude (normalised).
+        sample: GimbalSample,
+        /// The quaternion's norm as sent, for the plausibility gate (`None`: sent as angles).
+        quaternion_norm: Option<f64>,
+    },
     /// HOME_POSITION (altitude AMSL).
     Home(Geodetic),
     /// A TIMESYNC answer to our request: `ts1_ns` is the companion time we sent, `tc1_ns`
@@ -98,14 +103,16 @@ impl Incoming {
     }
 }
 
-/// MAVLink's "no data" marker in the gimbal quaternion.
-fn quaternion(q: [f32; 4]) -> Option<UnitQuaternion<f64>> {
+/// A quaternion as sent, normalised, and its norm as sent; `None` for MAVLink's "no data"
+/// marker (NaN, or all zeros). Whether the norm is plausible is the pose gate's call.
+fn quaternion(q: [f32; 4]) -> Option<(UnitQuaternion<f64>, f64)> {
     let [w, x, y, z] = q.map(f64::from);
     if ![w, x, y, z].iter().all(|v| v.is_finite()) {
         return None;
     }
     let q = Quaternion::new(w, x, y, z);
-    (q.norm() > 0.5).then(|| UnitQuaternion::from_quaternion(q))
+    let norm = q.norm();
+    (norm > 1e-6).then(|| (UnitQuaternion::from_quaternion(q), norm))
 }
 
 fn euler_rad(roll: f64, pitch: f64, yaw: f64) -> Option<UnitQuaternion<f64>> {
@@ -158,30 +165,47 @@ pub fn decode(
             if p.lat == 0 && p.lon == 0 {
                 return None; // no fix
             }
-            Some(Incoming::Position(PositionSample {
-                time: AutopilotTimeUs::from_boot_ms(p.time_boot_ms),
-                position: geodetic(p.lat, p.lon, p.alt)?,
+            Some(Incoming::Position(PositionFix {
+                sample: PositionSample {
+                    time: AutopilotTimeUs::from_boot_ms(p.time_boot_ms),
+                    position: geodetic(p.lat, p.lon, p.alt)?,
+                },
+                // cm/s, NED.
+                velocity_ned_mps: Some(Vector3::new(
+                    f64::from(p.vx) / 100.0,
+                    f64::from(p.vy) / 100.0,
+                    f64::from(p.vz) / 100.0,
+                )),
             }))
         }
         MavMessage::ATTITUDE(a) => Some(Incoming::Attitude(AttitudeSample {
             time: AutopilotTimeUs::from_boot_ms(a.time_boot_ms),
             attitude: euler_rad(a.roll.into(), a.pitch.into(), a.yaw.into())?,
         })),
-        MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) => Some(Incoming::Gimbal(GimbalSample {
-            time: AutopilotTimeUs::from_boot_ms(g.time_boot_ms),
-            attitude: quaternion(g.q)?,
-            frame: gimbal_yaw_frame(g.flags),
-        })),
-        MavMessage::MOUNT_ORIENTATION(m) => Some(Incoming::Gimbal(GimbalSample {
-            time: AutopilotTimeUs::from_boot_ms(m.time_boot_ms),
-            // Roll and pitch relative to the horizon, yaw relative to the vehicle (deg).
-            attitude: euler_rad(
-                f64::from(m.roll).to_radians(),
-                f64::from(m.pitch).to_radians(),
-                f64::from(m.yaw).to_radians(),
-            )?,
-            frame: GimbalYawFrame::Vehicle,
-        })),
+        MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(g) => {
+            let (attitude, norm) = quaternion(g.q)?;
+            Some(Incoming::Gimbal {
+                sample: GimbalSample {
+                    time: AutopilotTimeUs::from_boot_ms(g.time_boot_ms),
+                    attitude,
+                    frame: gimbal_yaw_frame(g.flags),
+                },
+                quaternion_norm: Some(norm),
+            })
+        }
+        MavMessage::MOUNT_ORIENTATION(m) => Some(Incoming::Gimbal {
+            sample: GimbalSample {
+                time: AutopilotTimeUs::from_boot_ms(m.time_boot_ms),
+                // Roll and pitch relative to the horizon, yaw relative to the vehicle (deg).
+                attitude: euler_rad(
+                    f64::from(m.roll).to_radians(),
+                    f64::from(m.pitch).to_radians(),
+                    f64::from(m.yaw).to_radians(),
+                )?,
+                frame: GimbalYawFrame::Vehicle,
+            },
+            quaternion_norm: None,
+        }),
         // ArduPilot's MOUNT_STATUS carries no timestamp; the link stamps it on arrival, so
         // it is decoded by `decode_mount_status`.
         MavMessage::HOME_POSITION(h) => {
@@ -295,9 +319,10 @@ mod tests {
         let Some(Incoming::Position(p)) = decode(&m, 1, 1, 191) else {
             panic!("not a position");
         };
-        assert_eq!(p.time, AutopilotTimeUs(1_500_000));
-        assert!((p.position.lat_deg - 47.6721).abs() < 1e-9);
-        assert!((p.position.alt_m - 425.0).abs() < 1e-9);
+        assert_eq!(p.sample.time, AutopilotTimeUs(1_500_000));
+        assert!((p.sample.position.lat_deg - 47.6721).abs() < 1e-9);
+        assert!((p.sample.position.alt_m - 425.0).abs() < 1e-9);
+        assert_eq!(p.velocity_ned_mps, Some(Vector3::zeros()));
         let no_fix = MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA::default());
         assert_eq!(decode(&no_fix, 1, 1, 191), None);
     }
@@ -314,7 +339,7 @@ mod tests {
             })
         };
         let frame = |flags| match decode(&mk(flags), 154, 1, 191) {
-            Some(Incoming::Gimbal(g)) => g.frame,
+            Some(Incoming::Gimbal { sample, .. }) => sample.frame,
             other => panic!("{other:?}"),
         };
         assert_eq!(
@@ -336,6 +361,15 @@ mod tests {
             ..Default::default()
         });
         assert_eq!(decode(&nan, 154, 1, 191), None);
+        // A skewed quaternion is decoded with its norm: the pose gate refuses it.
+        let skewed = MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+            q: [1.2, 0.0, 0.0, 0.0],
+            ..Default::default()
+        });
+        let Some(Incoming::Gimbal { quaternion_norm, .. }) = decode(&skewed, 154, 1, 191) else {
+            panic!("not a gimbal attitude");
+        };
+        assert!(quaternion_norm.is_some_and(|n| (n - 1.2).abs() < 1e-6));
     }
 
     #[test]
@@ -355,7 +389,7 @@ mod tests {
             yaw: 10.0,
             ..Default::default()
         });
-        let Some(Incoming::Gimbal(b)) = decode(&orient, 1, 1, 191) else {
+        let Some(Incoming::Gimbal { sample: b, .. }) = decode(&orient, 1, 1, 191) else {
             panic!()
         };
         assert!(a.attitude.angle_to(&b.attitude) < 1e-6);

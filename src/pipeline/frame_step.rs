@@ -7,6 +7,7 @@
 use super::capture::Delivered;
 use super::detector::Detector;
 use super::health::announce;
+use crate::logging::LogThrottle;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
 use super::recording::FrameRecording;
@@ -18,7 +19,7 @@ use super::telemetry::{FramePose, TelemetryState};
 use crate::camera::Frame;
 use crate::config::Settings;
 use crate::digest::{Digest, DigestSettings};
-use crate::frame::{geo_fix, GeoFix, GeoSettings, InputBuilder};
+use crate::frame::{geo_fix, ClockJump, FrameClock, GeoFix, GeoSettings, InputBuilder};
 use crate::geo::Geolocator;
 use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::Outputs;
@@ -42,8 +43,11 @@ pub(super) struct FrameStep {
     /// The tracker's inputs: the local frame (set at the first pose), the previous frame's
     /// pose and the tracker's clock.
     inputs: InputBuilder,
-    /// "No pose" is logged once per spell.
+    /// "No pose" is logged once per spell, and spells at most every [`LOG_EVERY`].
     no_pose_reported: bool,
+    no_pose_log: LogThrottle,
+    /// Jumps of the frame source's clock are logged at most every [`LOG_EVERY`].
+    clock_jump_log: LogThrottle,
     publisher: TrackPublisher,
     operator: OperatorLink,
     outputs: Outputs,
@@ -89,6 +93,8 @@ impl FrameStep {
             telemetry,
             inputs: InputBuilder::new(geo_settings(settings)),
             no_pose_reported: false,
+            no_pose_log: LogThrottle::default(),
+            clock_jump_log: LogThrottle::default(),
             publisher: TrackPublisher::new(
                 settings.outputs.track_every,
                 settings.outputs.radio_digest,
@@ -123,6 +129,9 @@ impl FrameStep {
         }
         self.service.stopping();
         self.stats.frames_dropped = reader.dropped();
+        if let Ok(t) = self.telemetry.lock() {
+            self.stats.telemetry = t.counters();
+        }
         self.stats
     }
 
@@ -145,7 +154,7 @@ impl FrameStep {
             return;
         };
         self.report_missing_pose(index, &pose);
-        let (input, camera_ned) = self.tracker_input(index, size, detections, &pose);
+        let (input, camera_ned) = self.tracker_input(index, size, detections, &pose, at);
         let geolocated = Instant::now();
         let output = match self.tracker.step(&input) {
             Ok(o) => o,
@@ -160,7 +169,7 @@ impl FrameStep {
         self.service.frame_processed(output.tracks.len());
         // The next frame's motion compensation starts from the frame the tracker just took.
         self.inputs.taken(index);
-        self.publish(&output, size, &pose, at, camera_ned);
+        self.publish(&output, input.time_s, size, &pose, at, camera_ned);
         if let Some(r) = &mut self.recording {
             let geolocator = self.inputs.geolocator();
             let fix = |t: &TrackOutput| fix_of(geolocator, &pose, t);
@@ -216,31 +225,65 @@ impl FrameStep {
             Err(why) => {
                 self.stats.frames_without_pose += 1;
                 if !self.no_pose_reported {
-                    tracing::warn!(frame = index, %why, "no pose: tracking in the image only");
                     self.no_pose_reported = true;
+                    if let Some(suppressed) = self.no_pose_log.allow() {
+                        tracing::warn!(
+                            frame = index,
+                            %why,
+                            suppressed,
+                            "no pose: tracking in the image only"
+                        );
+                    }
                 }
             }
         }
     }
 
     /// Geolocates the detections (when the frame has a pose) and builds the tracker's input;
-    /// also returns the camera's position in the local frame (for the operator's range).
+    /// also returns the camera's position in the local frame (for the operator's range). The
+    /// tracker's clock follows the exposure times and bridges their jumps (an autopilot reboot,
+    /// a restarted frame source) with the companion's monotonic clock at delivery.
     fn tracker_input(
         &mut self,
         index: u64,
         size: (u32, u32),
         detections: Vec<Detection>,
         pose: &FramePose,
+        delivered: CompanionTimeUs,
     ) -> (FrameInput, Option<Vector3<f64>>) {
-        let time_s = frame_time_s(index, pose.frame_time);
-        self.inputs
-            .build(index, time_s, size, detections, pose.meta.as_ref().ok())
+        let time = FrameClock {
+            source_s: frame_time_s(index, pose.frame_time),
+            reference_s: Some(delivered.0 as f64 / 1e6),
+        };
+        let (input, camera_ned, jump) =
+            self.inputs
+                .build(index, time, size, detections, pose.meta.as_ref().ok());
+        if let Some(jump) = jump {
+            self.report_clock_jump(index, &jump);
+        }
+        (input, camera_ned)
+    }
+
+    /// Counts a bridged jump of the frame source's clock and logs it (throttled).
+    fn report_clock_jump(&mut self, index: u64, jump: &ClockJump) {
+        self.stats.clock_jumps += 1;
+        if let Some(suppressed) = self.clock_jump_log.allow() {
+            tracing::warn!(
+                frame = index,
+                from_s = format_args!("{:.3}", jump.previous_source_s),
+                to_s = format_args!("{:.3}", jump.source_s),
+                tracker_s = format_args!("{:.3}", jump.tracker_s),
+                suppressed,
+                "the frame clock jumped (autopilot reboot, restarted camera or clock mapping found); the tracker's clock continues"
+            );
+        }
     }
 
     /// The due track reports and the operator's selected track.
     fn publish(
         &mut self,
         output: &FrameOutput,
+        time_s: f64,
         size: (u32, u32),
         pose: &FramePose,
         delivered: CompanionTimeUs,
@@ -257,6 +300,7 @@ impl FrameStep {
             output,
             size,
             pose.frame_time.unwrap_or(AutopilotTimeUs(0)),
+            tracker_time_us(time_s),
             &fix,
             &timing,
         );
@@ -312,8 +356,14 @@ pub(crate) fn geo_settings(settings: &Settings) -> GeoSettings {
     }
 }
 
-/// A frame's time on the tracker's clock (s): its exposure on the autopilot clock, or, before
-/// the clock mapping is known, its index at 30 fps.
+/// A time on the tracker's clock (s) in µs: what report rates and the digest's ages are
+/// measured on, as it never goes back or restarts (not even when the autopilot reboots).
+fn tracker_time_us(time_s: f64) -> u64 {
+    (time_s.max(0.0) * 1e6) as u64
+}
+
+/// A frame's source time (s): its exposure on the autopilot clock, or, before the clock
+/// mapping is known, its index at 30 fps. The tracker's clock is made from it.
 fn frame_time_s(index: u64, frame_time: Option<AutopilotTimeUs>) -> f64 {
     frame_time.map_or(index as f64 / 30.0, |t| t.0 as f64 / 1e6)
 }
@@ -348,12 +398,15 @@ impl TrackPublisher {
         }
     }
 
-    /// Queues the due reports of one frame; returns how many.
+    /// Queues the due reports of one frame; returns how many. `stamp` is the exposure on the
+    /// autopilot clock (the messages' time), `now_us` the tracker's clock (the rates').
+    #[allow(clippy::too_many_arguments)]
     fn publish(
         &mut self,
         output: &FrameOutput,
         size: (u32, u32),
         stamp: AutopilotTimeUs,
+        now_us: u64,
         fix: &dyn Fn(&TrackOutput) -> Option<GeoFix>,
         timing: &FrameTiming,
     ) -> u64 {
@@ -373,12 +426,12 @@ impl TrackPublisher {
             let due = self
                 .last_sent
                 .get(&t.id)
-                .is_none_or(|&at| stamp.0.saturating_sub(at) >= self.period_us)
+                .is_none_or(|&at| now_us.saturating_sub(at) >= self.period_us)
                 || merged_from.contains_key(&t.id);
             if !due {
                 continue;
             }
-            self.last_sent.insert(t.id, stamp.0);
+            self.last_sent.insert(t.id, now_us);
             let report = TrackReport::new(stamp, t, size, merged_from.get(&t.id).copied(), fix(t));
             self.outputs.track(&report, latency_on_sent(timing));
             sent += 1;

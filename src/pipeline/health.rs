@@ -1,6 +1,7 @@
 //! The heartbeat and the telemetry watch: HEARTBEAT at its configured rate, and twice a second
-//! whether position telemetry still flows, announced on change only (the core's
-//! [`ConditionReport`], the same reporter the camera and the detector use).
+//! whether position telemetry still flows and whether any was refused as implausible,
+//! announced on change only (the core's [`ConditionReport`], the same reporter the camera and
+//! the detector use).
 
 use super::shutdown::Shutdown;
 use super::telemetry::TelemetryState;
@@ -34,6 +35,7 @@ pub(super) async fn heartbeat_and_telemetry_watch(
     heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut check = tokio::time::interval(CHECK_EVERY);
     let mut report = ConditionReport::new(Condition::Telemetry);
+    let mut plausible = ConditionReport::new(Condition::Plausibility);
     // The companion clock is CLOCK_MONOTONIC (time since boot): start-up is now, not 0.
     let started = crate::clock::now();
     let lost_after_us = u64::try_from(lost_after.as_micros()).unwrap_or(u64::MAX);
@@ -47,12 +49,21 @@ pub(super) async fn heartbeat_and_telemetry_watch(
             _ = check.tick() => {}
         }
         let now = crate::clock::now();
-        let ok = telemetry
+        let Ok((last_position_at, (sane, why))) = telemetry
             .lock()
-            .ok()
-            .map(|t| t.last_position_at().unwrap_or(started))
-            .is_some_and(|at| now.0.saturating_sub(at.0) <= lost_after_us);
+            .map(|t| (t.last_position_at(), t.plausibility(now)))
+        else {
+            break;
+        };
+        let at = last_position_at.unwrap_or(started);
+        let ok = now.0.saturating_sub(at.0) <= lost_after_us;
         if let Some(notice) = report.observe(ok, None) {
+            announce(&outputs, &notice);
+        }
+        // Implausible telemetry: told once when the first sample is refused, and once when
+        // nothing was refused for a while again.
+        let why = why.map(|w| w.to_string());
+        if let Some(notice) = plausible.observe(sane, why.as_deref()) {
             announce(&outputs, &notice);
         }
     }

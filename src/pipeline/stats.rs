@@ -23,6 +23,11 @@ pub struct RunStats {
     pub detector_errors: u64,
     /// Frames the tracker rejected.
     pub tracker_errors: u64,
+    /// Jumps of the frame source's clock the tracker's clock bridged (an autopilot reboot, a
+    /// restarted camera or simulator, the clock mapping found mid-flight).
+    pub clock_jumps: u64,
+    /// What telemetry refused or saw (implausible samples, stale stamps, reboots).
+    pub telemetry: super::telemetry::TelemetryCounters,
     /// From the first frame taken by inference to the end of the last one processed (µs):
     /// `frames_processed / active_us` is the sustained rate.
     pub active_us: u64,

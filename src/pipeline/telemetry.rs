@@ -8,15 +8,25 @@ use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::{FrameMetadata, Geodetic};
 use crate::mavlink::TelemetryUpdate;
 use crate::telemetry::{
-    AutopilotTimeUs, ClockSync, CompanionTimeUs, GimbalSample, NoPose, PoseBuffer,
+    AutopilotTimeUs, ClockSync, CompanionTimeUs, GimbalSample, Implausible, NoPose, PoseBuffer,
+    PoseGate, StampVerdict,
 };
 use nalgebra::UnitQuaternion;
+
+/// An episode of implausible telemetry ends when nothing was refused for this long (µs).
+pub(super) const PLAUSIBLE_AGAIN_AFTER_US: u64 = 5_000_000;
 
 /// What the link's telemetry has told so far.
 #[derive(Debug)]
 pub(super) struct TelemetryState {
     poses: PoseBuffer,
     clock: ClockSync,
+    /// Reboots of the autopilot already acted on (the pose history and gate reset).
+    reboots_seen: u64,
+    /// Refuses samples that cannot be true (`telemetry.plausibility`).
+    gate: PoseGate,
+    /// The latest refusal: when (companion) and why.
+    last_refusal: Option<(CompanionTimeUs, Implausible)>,
     home: Option<Geodetic>,
     /// Companion time of the latest position fix (for "telemetry lost").
     last_position_at: Option<CompanionTimeUs>,
@@ -27,6 +37,18 @@ pub(super) struct TelemetryState {
     camera_latency_us: u64,
     /// `telemetry.gimbal_report`: what the gimbal's reports mean.
     gimbal_report: GimbalReport,
+}
+
+/// What telemetry refused or saw, for the run's counters.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct TelemetryCounters {
+    /// Samples the plausibility gate refused.
+    pub implausible: u64,
+    /// Stamps neither on the autopilot's current timeline nor a confirmed reboot (delayed,
+    /// replayed, stray, forged): their messages were not used.
+    pub stale_stamps: u64,
+    /// Autopilot reboots confirmed.
+    pub autopilot_reboots: u64,
 }
 
 /// A frame's pose, as far as telemetry knows it.
@@ -56,6 +78,9 @@ impl TelemetryState {
         Self {
             poses,
             clock: ClockSync::new(),
+            reboots_seen: 0,
+            gate: PoseGate::new(t.plausibility),
+            last_refusal: None,
             home: None,
             last_position_at: None,
             water_level_amsl_m: t.water_level_amsl_m,
@@ -64,19 +89,41 @@ impl TelemetryState {
         }
     }
 
-    /// Takes one update from the link.
+    /// Takes one update from the link. Stamps that are neither current nor a reboot are not
+    /// used ([`StampVerdict::Stale`]); a confirmed reboot voids the pose history; samples the
+    /// plausibility gate refuses never reach the pose buffer.
     pub fn apply(&mut self, update: TelemetryUpdate) {
         match update {
-            TelemetryUpdate::Position { sample, at } => {
-                self.clock.observe_arrival(sample.time, at);
-                self.poses.push_position(sample);
-                self.last_position_at = Some(at);
+            TelemetryUpdate::Position { fix, at } => {
+                if self.stamp(fix.sample.time, at) == StampVerdict::Stale {
+                    return;
+                }
+                let water = self.water_level_amsl_m;
+                match self.gate.check_position(&fix, self.home.as_ref(), water) {
+                    Ok(()) => {
+                        self.poses.push_position(fix.sample);
+                        self.last_position_at = Some(at);
+                    }
+                    Err(why) => self.last_refusal = Some((at, why)),
+                }
             }
             TelemetryUpdate::Attitude { sample, at } => {
-                self.clock.observe_arrival(sample.time, at);
-                self.poses.push_attitude(sample);
+                if self.stamp(sample.time, at) != StampVerdict::Stale {
+                    self.poses.push_attitude(sample);
+                }
             }
-            TelemetryUpdate::Gimbal(g) => self.poses.push_gimbal(self.as_mounted(g)),
+            TelemetryUpdate::Gimbal {
+                sample,
+                quaternion_norm,
+                at,
+            } => {
+                if let Some(Err(why)) = quaternion_norm.map(|n| self.gate.check_quaternion_norm(n))
+                {
+                    self.last_refusal = Some((at, why));
+                    return;
+                }
+                self.poses.push_gimbal(self.as_mounted(sample));
+            }
             TelemetryUpdate::GimbalAtArrival { mut sample, at } => {
                 if let Some(time) = self.clock.to_autopilot(at) {
                     sample.time = time;
@@ -91,7 +138,47 @@ impl TelemetryState {
             } => {
                 // Returns the round trip, or None for an inconsistent answer (ignored).
                 let _ = self.clock.observe_timesync(sent, autopilot, at);
+                self.follow_reboots();
             }
+        }
+    }
+
+    /// The clock's verdict on a stamped message; a confirmed reboot is acted on.
+    fn stamp(&mut self, time: AutopilotTimeUs, at: CompanionTimeUs) -> StampVerdict {
+        let verdict = self.clock.observe_arrival(time, at);
+        self.follow_reboots();
+        verdict
+    }
+
+    /// After a reboot the clock confirmed (by any message), the pose history and the gate's
+    /// reference are on the old clock: both start again.
+    fn follow_reboots(&mut self) {
+        let reboots = self.clock.resets();
+        if reboots != self.reboots_seen {
+            self.reboots_seen = reboots;
+            self.poses.clear();
+            self.gate.reset();
+        }
+    }
+
+    /// Whether telemetry has been plausible for [`PLAUSIBLE_AGAIN_AFTER_US`] before `now`,
+    /// and if not, why the latest sample was refused.
+    pub fn plausibility(&self, now: CompanionTimeUs) -> (bool, Option<Implausible>) {
+        match self.last_refusal {
+            Some((at, why)) if now.0.saturating_sub(at.0) < PLAUSIBLE_AGAIN_AFTER_US => {
+                (false, Some(why))
+            }
+            _ => (true, None),
+        }
+    }
+
+    /// Telemetry counters: samples refused as implausible, stamps ignored as stale (neither
+    /// current nor a reboot) and autopilot reboots.
+    pub fn counters(&self) -> TelemetryCounters {
+        TelemetryCounters {
+            implausible: self.gate.refused(),
+            stale_stamps: self.clock.stale_stamps(),
+            autopilot_reboots: self.clock.resets(),
         }
     }
 

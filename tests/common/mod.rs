@@ -487,6 +487,8 @@ pub struct Truth {
     pub class: String,
     pub lat: f64,
     pub lon: f64,
+    /// True velocity north and east (m/s).
+    pub vel_ne: (f64, f64),
 }
 
 /// The simulator's ground truth: `world.csv` of `mgmot-sim detections` (`<stem>_gt/`) or of
@@ -497,7 +499,10 @@ pub fn read_truth(world_csv: &Path) -> Vec<Truth> {
     r.deserialize::<std::collections::HashMap<String, String>>()
         .map(|row| {
             let row = row.unwrap();
+            let speed: f64 = row["speed_mps"].parse().unwrap();
+            let heading = row["heading_deg"].parse::<f64>().unwrap().to_radians();
             Truth {
+                vel_ne: (speed * heading.cos(), speed * heading.sin()),
                 t_ms: (row["time_s"].parse::<f64>().unwrap() * 1000.0).round() as i64,
                 id: row["id"].parse().unwrap(),
                 class: row["class"].clone(),

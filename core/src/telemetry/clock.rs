@@ -11,11 +11,15 @@
 //!   over the last [`ARRIVAL_WINDOW`] messages approaches the offset from above by the smallest
 //!   delay seen.
 //!
-//! An autopilot reboot (its clock jumps back by more than [`REBOOT_JUMP_US`], and
-//! [`REBOOT_CONFIRM`] stamps in a row stay on the new timeline) resets both. A lone old stamp
-//! (a delayed or replayed packet) is ignored instead, and the reset is logged at most every
-//! [`LOG_EVERY_US`], so old stamps can neither wipe the mapping packet by packet nor flood
-//! the log.
+//! An autopilot reboot resets both. What is a reboot is decided in one place,
+//! [`RebootDetector`], which the link (stream requests) and the pose buffer follow too: the
+//! clock jumps back by more than [`REBOOT_JUMP_US`], and the new timeline then holds alone, for
+//! [`REBOOT_CONFIRM`] stamps in a row covering at least [`REBOOT_CONFIRM_SPAN_US`] of it, with
+//! no stamp of the old timeline in between, or at once after the old timeline had been silent
+//! for [`REBOOT_AFTER_SILENCE_US`]. A lone old stamp (a delayed or replayed packet, a
+//! stray or forged message stamped near zero) is ignored instead, and the reset is logged at
+//! most every [`LOG_EVERY_US`], so old stamps can neither wipe the mapping packet by packet
+//! nor flood the log.
 
 use super::{AutopilotTimeUs, CompanionTimeUs};
 use std::collections::VecDeque;
@@ -33,6 +37,16 @@ pub const REBOOT_JUMP_US: u64 = 2_000_000;
 
 /// Stamps in a row behind the latest by more than [`REBOOT_JUMP_US`] that make a reboot.
 pub const REBOOT_CONFIRM: u32 = 3;
+
+/// How much of the new timeline those stamps must cover (autopilot µs): a rebooted autopilot
+/// streams at tens of hertz within a second, while a stray or forged message now and then
+/// between the real ones never holds the new timeline alone this long.
+pub const REBOOT_CONFIRM_SPAN_US: u64 = 500_000;
+
+/// After the current timeline has been silent this long (companion µs), the first stamp far
+/// behind it is a reboot at once: a rebooting autopilot is silent for seconds, and a forger
+/// cannot silence the real one.
+pub const REBOOT_AFTER_SILENCE_US: u64 = 1_000_000;
 
 /// The reboot warning is logged at most this often (companion µs); the others are counted.
 pub const LOG_EVERY_US: u64 = 10_000_000;
@@ -55,6 +69,100 @@ struct Exchange {
     round_trip_us: u64,
 }
 
+/// What a new autopilot stamp means, as [`RebootDetector::observe`] judges it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StampVerdict {
+    /// On the current timeline (or reordered by less than [`REBOOT_JUMP_US`]): use it.
+    Current,
+    /// Far behind the latest without (yet) making a reboot (a delayed, replayed, stray or
+    /// forged stamp), or further ahead of the latest than the companion's clock moved since
+    /// it arrived (a stamp from the future). Do not use it.
+    Stale,
+    /// This stamp confirmed a reboot: everything kept on the old timeline is void; the stamp
+    /// itself is the first to use on the new one.
+    Rebooted {
+        /// The latest stamp of the old timeline.
+        from: AutopilotTimeUs,
+    },
+}
+
+/// Decides, stamp by stamp, whether the autopilot rebooted (see the module doc): the one
+/// judge the clock mapping, the pose buffer and the link's stream requests follow.
+#[derive(Debug, Clone, Default)]
+pub struct RebootDetector {
+    /// Latest autopilot stamp seen on the current timeline, and when it arrived.
+    latest: Option<(AutopilotTimeUs, CompanionTimeUs)>,
+    /// Stamps in a row far behind `latest`: the first and newest of them, and how many.
+    behind: Option<(AutopilotTimeUs, AutopilotTimeUs, u32)>,
+    /// Stamps ignored as far behind without making a reboot.
+    stale_stamps: u64,
+    /// Reboots confirmed.
+    reboots: u64,
+}
+
+impl RebootDetector {
+    /// Nothing seen yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Judges the autopilot stamp `t` that arrived at companion time `at`.
+    pub fn observe(&mut self, t: AutopilotTimeUs, at: CompanionTimeUs) -> StampVerdict {
+        let Some((latest, latest_at)) = self.latest else {
+            self.latest = Some((t, at));
+            return StampVerdict::Current;
+        };
+        let moved_us = at.0.saturating_sub(latest_at.0);
+        if t.0 > latest.0.saturating_add(moved_us).saturating_add(REBOOT_JUMP_US) {
+            // Ahead of the latest by more than the time that passed since it arrived.
+            self.stale_stamps += 1;
+            return StampVerdict::Stale;
+        }
+        if latest.0 <= t.0.saturating_add(REBOOT_JUMP_US) {
+            // On the current timeline (or reordered by less than the jump): any run of far
+            // older stamps is broken by it.
+            self.behind = None;
+            if t >= latest {
+                self.latest = Some((t, at));
+            }
+            return StampVerdict::Current;
+        }
+        // Far behind: after a silence of the current timeline, a reboot at once.
+        if moved_us >= REBOOT_AFTER_SILENCE_US {
+            self.behind = None;
+            self.reboots += 1;
+            self.latest = Some((t, at));
+            return StampVerdict::Rebooted { from: latest };
+        }
+        // Otherwise only if the stamps hold one new timeline alone, long enough.
+        let (first, count) = match self.behind {
+            Some((first, prev, n)) if t.0 >= prev.0 && t.0 <= prev.0.saturating_add(REBOOT_JUMP_US) => {
+                (first, n + 1)
+            }
+            _ => (t, 1),
+        };
+        if count < REBOOT_CONFIRM || t.0.saturating_sub(first.0) < REBOOT_CONFIRM_SPAN_US {
+            self.behind = Some((first, t, count));
+            self.stale_stamps += 1;
+            return StampVerdict::Stale;
+        }
+        self.behind = None;
+        self.reboots += 1;
+        self.latest = Some((t, at));
+        StampVerdict::Rebooted { from: latest }
+    }
+
+    /// Stamps ignored as far behind the latest without making a reboot.
+    pub fn stale_stamps(&self) -> u64 {
+        self.stale_stamps
+    }
+
+    /// Reboots confirmed since start.
+    pub fn reboots(&self) -> u64 {
+        self.reboots
+    }
+}
+
 /// The clock mapping between autopilot and companion.
 #[derive(Debug, Clone, Default)]
 pub struct ClockSync {
@@ -62,14 +170,8 @@ pub struct ClockSync {
     exchanges: VecDeque<Exchange>,
     /// Recent `arrival - stamp` values (µs), for the fallback.
     arrivals: VecDeque<i64>,
-    /// Latest autopilot stamp seen, to notice a reboot.
-    latest_autopilot: Option<AutopilotTimeUs>,
-    /// Stamps in a row far behind `latest_autopilot` (the newest of them, how many).
-    behind: Option<(AutopilotTimeUs, u32)>,
-    /// Stamps ignored as far behind without making a reboot.
-    stale_stamps: u64,
-    /// Resets since start.
-    resets: u64,
+    /// Whether a stamp is current, stale or a reboot.
+    reboots: RebootDetector,
     /// When the reset warning was last logged (companion µs), and resets not logged since.
     last_warning: Option<(u64, u64)>,
 }
@@ -90,7 +192,7 @@ impl ClockSync {
         received: CompanionTimeUs,
     ) -> Option<u64> {
         let round_trip_us = received.0.checked_sub(sent.0)?;
-        if !self.note_autopilot_time(autopilot, received) {
+        if self.note_autopilot_time(autopilot, received) == StampVerdict::Stale {
             return None;
         }
         let midpoint = sent.0 as i128 + i128::from(round_trip_us / 2);
@@ -105,59 +207,47 @@ impl ClockSync {
         Some(round_trip_us)
     }
 
-    /// Records a message stamped `stamp` by the autopilot that arrived at `arrival`.
-    pub fn observe_arrival(&mut self, stamp: AutopilotTimeUs, arrival: CompanionTimeUs) {
-        if !self.note_autopilot_time(stamp, arrival) {
-            return;
+    /// Records a message stamped `stamp` by the autopilot that arrived at `arrival`, and
+    /// says what the stamp means: a [`StampVerdict::Stale`] message's contents must not be
+    /// used either, and after [`StampVerdict::Rebooted`] whatever was kept on the old
+    /// timeline (the pose history) is void.
+    pub fn observe_arrival(
+        &mut self,
+        stamp: AutopilotTimeUs,
+        arrival: CompanionTimeUs,
+    ) -> StampVerdict {
+        let verdict = self.note_autopilot_time(stamp, arrival);
+        if verdict == StampVerdict::Stale {
+            return verdict;
         }
         let Ok(delta) = i64::try_from(arrival.0 as i128 - stamp.0 as i128) else {
-            return;
+            return verdict;
         };
         if self.arrivals.len() == ARRIVAL_WINDOW {
             self.arrivals.pop_front();
         }
         self.arrivals.push_back(delta);
+        verdict
     }
 
-    /// Notes the autopilot stamp `t` seen at companion time `now`: whether to use it (false
-    /// for a stamp far behind the latest that does not, or not yet, make a reboot).
-    fn note_autopilot_time(&mut self, t: AutopilotTimeUs, now: CompanionTimeUs) -> bool {
-        let Some(latest) = self.latest_autopilot else {
-            self.latest_autopilot = Some(t);
-            return true;
+    /// Notes the autopilot stamp `t` seen at companion time `now` and returns the verdict; a
+    /// reboot resets the mapping.
+    fn note_autopilot_time(&mut self, t: AutopilotTimeUs, now: CompanionTimeUs) -> StampVerdict {
+        let verdict = self.reboots.observe(t, now);
+        let StampVerdict::Rebooted { from } = verdict else {
+            return verdict;
         };
-        if latest.0 <= t.0.saturating_add(REBOOT_JUMP_US) {
-            // On the current timeline (or reordered by less than the jump).
-            self.behind = None;
-            self.latest_autopilot = Some(latest.max(t));
-            return true;
-        }
-        // Far behind: a reboot only if the stamps stay on one new timeline.
-        let count = match self.behind {
-            Some((prev, n)) if t.0 >= prev.0 && t.0 <= prev.0.saturating_add(REBOOT_JUMP_US) => {
-                n + 1
-            }
-            _ => 1,
-        };
-        if count < REBOOT_CONFIRM {
-            self.behind = Some((t, count));
-            self.stale_stamps += 1;
-            return false;
-        }
-        self.behind = None;
-        self.resets += 1;
         self.exchanges.clear();
         self.arrivals.clear();
-        self.latest_autopilot = Some(t);
         let due = self
             .last_warning
             .is_none_or(|(at, _)| now.0.saturating_sub(at) >= LOG_EVERY_US);
         if due {
             let suppressed = self.last_warning.map_or(0, |(_, n)| n);
             tracing::warn!(
-                from_us = latest.0,
+                from_us = from.0,
                 to_us = t.0,
-                resets = self.resets,
+                resets = self.reboots.reboots(),
                 suppressed,
                 "autopilot clock jumped back: reboot; clock mapping reset"
             );
@@ -165,17 +255,17 @@ impl ClockSync {
         } else if let Some((_, n)) = self.last_warning.as_mut() {
             *n += 1;
         }
-        true
+        verdict
     }
 
     /// Stamps ignored as far behind the latest without making a reboot (delayed, replayed).
     pub fn stale_stamps(&self) -> u64 {
-        self.stale_stamps
+        self.reboots.stale_stamps()
     }
 
     /// Times the mapping was reset for an autopilot reboot.
     pub fn resets(&self) -> u64 {
-        self.resets
+        self.reboots.reboots()
     }
 
     /// The estimate in use.
@@ -266,16 +356,86 @@ mod tests {
     #[test]
     fn reboot_resets() {
         let mut c = ClockSync::new();
+        // The old timeline streams until the new one starts (no silence between).
         c.observe_arrival(AutopilotTimeUs(100_000_000), CompanionTimeUs(100_500_000));
-        for k in 0..u64::from(REBOOT_CONFIRM) {
-            assert_eq!(c.offset_us(), Some(500_000), "reset after {k} stamps");
-            c.observe_arrival(
+        c.observe_arrival(AutopilotTimeUs(199_500_000), CompanionTimeUs(200_000_000));
+        // The new timeline at 50 Hz: the reboot is confirmed once it held alone for
+        // REBOOT_CONFIRM_SPAN_US, not before.
+        let mut k = 0u64;
+        loop {
+            let verdict = c.observe_arrival(
                 AutopilotTimeUs(1_000 + k * 20_000),
                 CompanionTimeUs(200_001_000 + k * 20_000),
             );
+            if k * 20_000 < REBOOT_CONFIRM_SPAN_US {
+                assert_eq!(verdict, StampVerdict::Stale, "stamp {k}");
+                assert_eq!(c.offset_us(), Some(500_000), "reset after {k} stamps");
+            } else {
+                assert_eq!(
+                    verdict,
+                    StampVerdict::Rebooted {
+                        from: AutopilotTimeUs(199_500_000)
+                    }
+                );
+                break;
+            }
+            k += 1;
         }
         assert_eq!(c.offset_us(), Some(200_000_000));
         assert_eq!(c.resets(), 1);
+    }
+
+    /// A rebooting autopilot is silent for seconds: the first stamp of the new boot after that
+    /// silence is a reboot at once.
+    #[test]
+    fn after_a_silence_the_first_stamp_far_behind_is_a_reboot() {
+        let mut d = RebootDetector::new();
+        assert_eq!(
+            d.observe(AutopilotTimeUs(30_000_000), CompanionTimeUs(50_000_000)),
+            StampVerdict::Current
+        );
+        assert_eq!(
+            d.observe(
+                AutopilotTimeUs(1_000),
+                CompanionTimeUs(50_000_000 + REBOOT_AFTER_SILENCE_US)
+            ),
+            StampVerdict::Rebooted {
+                from: AutopilotTimeUs(30_000_000)
+            }
+        );
+    }
+
+    /// A stray or forged message stamped near zero every 100 ms among the autopilot's 50 Hz
+    /// stream, even in bursts of several in a row, is never a reboot.
+    #[test]
+    fn forged_stamps_near_zero_are_never_a_reboot() {
+        let mut d = RebootDetector::new();
+        let mut forged = 0u64;
+        for k in 0..5_000u64 {
+            let at = CompanionTimeUs(900_000_000 + k * 20_000);
+            let real = AutopilotTimeUs(300_000_000 + k * 20_000);
+            assert_eq!(d.observe(real, at), StampVerdict::Current);
+            if k % 5 == 0 {
+                // Five forged stamps in a row, 100 ms apart on their own timeline.
+                for _ in 0..5 {
+                    let stamp = AutopilotTimeUs((forged % 100) * 100_000);
+                    assert_eq!(d.observe(stamp, at), StampVerdict::Stale);
+                    forged += 1;
+                }
+            }
+        }
+        // One stamp from the future is not used either, nor does it move the timeline.
+        let at = CompanionTimeUs(900_000_000 + 5_000 * 20_000);
+        assert_eq!(
+            d.observe(AutopilotTimeUs(4_000_000_000), at),
+            StampVerdict::Stale
+        );
+        assert_eq!(
+            d.observe(AutopilotTimeUs(300_000_000 + 5_000 * 20_000), at),
+            StampVerdict::Current
+        );
+        assert_eq!(d.reboots(), 0);
+        assert_eq!(d.stale_stamps(), 5_001);
     }
 
     /// Old stamps between current ones (a delayed or replayed packet, a spoofer) neither

@@ -7,9 +7,16 @@
 //! configured limit) is a typed [`NoPose`], never a silently stale value.
 
 mod clock;
+mod plausibility;
 mod pose;
 
-pub use clock::{ClockSource, ClockSync, TIMESYNC_WINDOW};
+pub use clock::{
+    ClockSource, ClockSync, RebootDetector, StampVerdict, REBOOT_JUMP_US, TIMESYNC_WINDOW,
+};
+pub use plausibility::{
+    Implausible, PlausibilityLimits, PoseGate, PositionFix, POSITION_SLACK_M,
+    QUATERNION_NORM_TOLERANCE, VELOCITY_SLACK_MPS,
+};
 pub use pose::{
     AttitudeSample, CameraPoseAt, GimbalSample, NoPose, PoseBuffer, PositionSample, Stream,
 };

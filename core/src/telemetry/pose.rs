@@ -181,15 +181,10 @@ impl<T> Default for Series<T> {
 impl<T: Interpolate> Series<T> {
     fn push(&mut self, sample: T) {
         // Out-of-order or repeated stamps (a message relayed twice) would break the bracketing.
-        if let Some(last) = self.samples.back() {
-            if sample.time() <= last.time() {
-                if sample.time().0 + super::clock::REBOOT_JUMP_US < last.time().0 {
-                    // Autopilot reboot: the old history is on another clock.
-                    self.samples.clear();
-                } else {
-                    return;
-                }
-            }
+        // A stamp far in the past is no reboot by itself (a stray or forged message): only a
+        // confirmed reboot empties the history ([`PoseBuffer::clear`]).
+        if self.samples.back().is_some_and(|last| sample.time() <= last.time()) {
+            return;
         }
         if self.samples.len() == STREAM_CAPACITY {
             self.samples.pop_front();
@@ -273,6 +268,14 @@ impl PoseBuffer {
     /// The staleness limit (µs).
     pub fn max_age_us(&self) -> u64 {
         self.max_age_us
+    }
+
+    /// Forgets every sample: the autopilot rebooted (a confirmed
+    /// [`super::StampVerdict::Rebooted`]) and the history is on its old clock.
+    pub fn clear(&mut self) {
+        self.positions.samples.clear();
+        self.attitudes.samples.clear();
+        self.gimbals.samples.clear();
     }
 
     /// Adds a position fix.
@@ -451,13 +454,20 @@ mod tests {
     }
 
     #[test]
-    fn out_of_order_samples_are_ignored_and_reboot_clears() {
+    fn out_of_order_samples_are_ignored_and_only_a_confirmed_reboot_clears() {
         let mut b = PoseBuffer::new(100_000);
         b.push_position(pos(10_000_000, 1.0, 0.0, 0.0));
         b.push_position(pos(9_990_000, 2.0, 0.0, 0.0));
         assert_eq!(b.positions.samples.len(), 1);
+        // A lone stamp near zero (stray, forged) neither clears the history nor joins it.
         b.push_position(pos(1_000, 3.0, 0.0, 0.0));
         assert_eq!(b.positions.samples.len(), 1);
+        assert_eq!(
+            b.latest(Stream::Position),
+            Some(AutopilotTimeUs(10_000_000))
+        );
+        b.clear();
+        b.push_position(pos(1_000, 3.0, 0.0, 0.0));
         assert_eq!(b.latest(Stream::Position), Some(AutopilotTimeUs(1_000)));
     }
 

@@ -26,6 +26,7 @@
 //! clock goes back) or comes back after silence ([`streams`]). TCP and serial reconnect with
 //! back-off; a peer that stops reading cannot stall the link (writes time out).
 
+pub mod command_budget;
 pub mod frames;
 pub mod streams;
 pub mod timesync;
@@ -35,7 +36,9 @@ use super::address::AddressError;
 use super::dialect::{self, MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA};
 use super::encode::{message_interval_request, timesync_request};
 use super::signing::{Refusal, Signer, SigningStateError};
-use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
+use crate::logging::LogThrottle;
+use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs, RebootDetector, StampVerdict};
+use command_budget::{CommandBudget, COMMANDS_PER_S};
 use frames::FrameParser;
 use mavlink_core::{MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, Message, MessageData};
 use std::net::SocketAddr;
@@ -54,8 +57,6 @@ pub const PEER_TIMEOUT: Duration = Duration::from_secs(5);
 /// The autopilot silent this long is "gone": when it is heard again, its streams are asked
 /// for again (it may have rebooted without us seeing its clock go back).
 pub const AUTOPILOT_SILENCE: Duration = Duration::from_secs(3);
-/// A jump back of the autopilot's boot clock by more than this is a reboot.
-pub const REBOOT_JUMP_MS: u32 = 2000;
 /// Reconnect back-off: first wait and longest wait.
 pub const RECONNECT_INITIAL: Duration = Duration::from_millis(200);
 /// See [`RECONNECT_INITIAL`].
@@ -69,8 +70,7 @@ pub const FLUSH_TIMEOUT: Duration = Duration::from_secs(1);
 pub const OUT_QUEUE: usize = 1024;
 /// Events waiting for the pipeline.
 pub const EVENT_QUEUE: usize = 4096;
-/// Rate-limited warnings repeat at most this often (with the number suppressed between).
-pub const LOG_EVERY: Duration = Duration::from_secs(10);
+pub use crate::logging::LOG_EVERY;
 
 /// Why the link could not be set up.
 #[derive(Debug, thiserror::Error)]
@@ -248,26 +248,9 @@ pub struct LinkStats {
     pub autopilot_restarts: u64,
     /// SET_MESSAGE_INTERVAL requests sent.
     pub stream_requests: u64,
-}
-
-/// Rate-limits one kind of warning.
-#[derive(Debug, Default)]
-struct Throttle {
-    last: Option<Instant>,
-    suppressed: u64,
-}
-
-impl Throttle {
-    /// `Some(suppressed since the last one)` when a warning may be logged now.
-    fn allow(&mut self) -> Option<u64> {
-        let now = Instant::now();
-        if self.last.is_some_and(|t| now.duration_since(t) < LOG_EVERY) {
-            self.suppressed += 1;
-            return None;
-        }
-        self.last = Some(now);
-        Some(std::mem::take(&mut self.suppressed))
-    }
+    /// Commands dropped unanswered: their sender was beyond its budget
+    /// ([`command_budget::COMMANDS_PER_S`]).
+    pub commands_over_budget: u64,
 }
 
 /// The running link: [`Link::close`] stops it.
@@ -302,14 +285,19 @@ impl Link {
             sequence: 0,
             started: Instant::now(),
             autopilot_heard: None,
-            autopilot_boot_ms: None,
+            autopilot_clock: RebootDetector::new(),
+            streams_reset_at: None,
+            commands: CommandBudget::default(),
+            throttle_commands: LogThrottle::default(),
+            throttle_unknown: LogThrottle::default(),
+            throttle_restart: LogThrottle::default(),
             last_timesync: None,
             last_persist: Instant::now(),
             stats: LinkStats::default(),
-            throttle_peer: Throttle::default(),
-            throttle_telemetry: Throttle::default(),
-            throttle_signing: Throttle::default(),
-            throttle_connect: Throttle::default(),
+            throttle_peer: LogThrottle::default(),
+            throttle_telemetry: LogThrottle::default(),
+            throttle_signing: LogThrottle::default(),
+            throttle_connect: LogThrottle::default(),
             events: event_tx,
         };
         let task = tokio::spawn(task.run(out_rx, stop_rx));
@@ -343,14 +331,23 @@ struct LinkTask {
     sequence: u8,
     started: Instant,
     autopilot_heard: Option<Instant>,
-    autopilot_boot_ms: Option<u32>,
+    /// Whether the autopilot's stamps say it rebooted: the same judge as the clock mapping's
+    /// and the pose buffer's, so a stray or forged stamp near zero is no reboot here either.
+    autopilot_clock: RebootDetector,
+    /// When the streams were last asked for again (since start).
+    streams_reset_at: Option<Duration>,
+    throttle_restart: LogThrottle,
+    /// Commands each sender may have answered.
+    commands: CommandBudget,
+    throttle_commands: LogThrottle,
+    throttle_unknown: LogThrottle,
     last_timesync: Option<Instant>,
     last_persist: Instant,
     stats: LinkStats,
-    throttle_peer: Throttle,
-    throttle_telemetry: Throttle,
-    throttle_signing: Throttle,
-    throttle_connect: Throttle,
+    throttle_peer: LogThrottle,
+    throttle_telemetry: LogThrottle,
+    throttle_signing: LogThrottle,
+    throttle_connect: LogThrottle,
     events: mpsc::Sender<LinkEvent>,
 }
 
@@ -744,7 +741,23 @@ impl LinkTask {
         if udp_in && from == self.peer {
             self.peer_heard = Some(Instant::now());
         }
-        // 4. The message.
+        // 4. A command beyond its sender's budget is dropped unanswered (and counted).
+        let id = raw.message_id();
+        if (id == dialect::COMMAND_LONG_DATA::ID || id == dialect::COMMAND_INT_DATA::ID)
+            && !self.commands.admit((system_id, component_id), Instant::now())
+        {
+            self.stats.commands_over_budget += 1;
+            if let Some(suppressed) = self.throttle_commands.allow() {
+                tracing::warn!(
+                    system_id,
+                    component_id,
+                    suppressed,
+                    "commands beyond {COMMANDS_PER_S} a second from one sender dropped unanswered"
+                );
+            }
+            return;
+        }
+        // 5. The message.
         let message = match MavMessage::parse(raw.version(), raw.message_id(), raw.payload()) {
             Ok(m) => m,
             Err(_) => {
@@ -842,24 +855,34 @@ impl LinkTask {
         let returned = self
             .autopilot_heard
             .is_some_and(|t| t.elapsed() >= AUTOPILOT_SILENCE);
+        let at = CompanionTimeUs(u64::try_from(now.as_micros()).unwrap_or(u64::MAX));
         let rebooted = boot_ms(m).is_some_and(|ms| {
-            self.autopilot_boot_ms
-                .is_some_and(|last| last > ms.saturating_add(REBOOT_JUMP_MS))
+            let stamp = AutopilotTimeUs::from_boot_ms(ms);
+            matches!(
+                self.autopilot_clock.observe(stamp, at),
+                StampVerdict::Rebooted { .. }
+            )
         });
-        if let Some(ms) = boot_ms(m) {
-            self.autopilot_boot_ms = Some(ms);
-        }
-        if returned || rebooted {
+        // A reboot confirmed by the stamps of streams just asked for again after the
+        // autopilot's silence is the same event: the streams are not asked for twice.
+        let just_asked = self
+            .streams_reset_at
+            .is_some_and(|t| now.saturating_sub(t) < AUTOPILOT_SILENCE);
+        if returned || (rebooted && !just_asked) {
+            self.streams_reset_at = Some(now);
             self.stats.autopilot_restarts += 1;
-            tracing::warn!(
-                rebooted,
-                "autopilot back ({}); asking for its streams again",
-                if rebooted {
-                    "it rebooted"
-                } else {
-                    "after silence"
-                }
-            );
+            if let Some(suppressed) = self.throttle_restart.allow() {
+                tracing::warn!(
+                    rebooted,
+                    suppressed,
+                    "autopilot back ({}); asking for its streams again",
+                    if rebooted {
+                        "it rebooted"
+                    } else {
+                        "after silence"
+                    }
+                );
+            }
             self.streams.reset(now);
         }
         self.autopilot_heard = Some(Instant::now());
@@ -892,11 +915,14 @@ impl LinkTask {
         if !for_us {
             return;
         }
-        tracing::info!(
-            command,
-            from_system = system_id,
-            "unknown command answered UNSUPPORTED"
-        );
+        if let Some(suppressed) = self.throttle_unknown.allow() {
+            tracing::info!(
+                command,
+                from_system = system_id,
+                suppressed,
+                "unknown command answered UNSUPPORTED"
+            );
+        }
         let bytes = self.unsupported_ack(command, system_id, component_id);
         self.send_raw(conn, &bytes, None).await;
     }
