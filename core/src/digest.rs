@@ -232,12 +232,19 @@ mod tests {
     #[test]
     fn a_new_object_is_announced_once_when_first_geolocated() {
         let mut d = Digest::new(SETTINGS);
-        assert_eq!(observe(&mut d, &report(3, 1, 1.0, None)), None, "no position yet");
+        assert_eq!(
+            observe(&mut d, &report(3, 1, 1.0, None)),
+            None,
+            "no position yet"
+        );
         assert_eq!(
             observe(&mut d, &report(3, 1, 1.5, Some((-35.3632611, 149.1652299)))),
             Some("mgmot new swimmer #3 -35.363261,149.165230".to_owned())
         );
-        assert_eq!(observe(&mut d, &report(3, 1, 2.0, Some((-35.36, 149.16)))), None);
+        assert_eq!(
+            observe(&mut d, &report(3, 1, 2.0, Some((-35.36, 149.16)))),
+            None
+        );
     }
 
     #[test]
@@ -280,7 +287,10 @@ mod tests {
         }
         assert_eq!(d.announced.len(), MAX_ANNOUNCED);
         // The latest ids are still known; the first ones gave way.
-        assert_eq!(observe(&mut d, &report(n, 1, n as f64, Some((47.0, 9.0)))), None);
+        assert_eq!(
+            observe(&mut d, &report(n, 1, n as f64, Some((47.0, 9.0)))),
+            None
+        );
         assert!(observe(&mut d, &report(1, 1, n as f64, Some((47.0, 9.0)))).is_some());
     }
 

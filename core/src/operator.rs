@@ -721,7 +721,10 @@ mod tests {
             changes.extend(step(&mut tracker, &mut s, false).1);
         }
         assert_eq!(changes, vec![Change::Lost { track_id }]);
-        assert_eq!(s.selected().map(|s| (s.track_id, s.lost)), Some((track_id, true)));
+        assert_eq!(
+            s.selected().map(|s| (s.track_id, s.lost)),
+            Some((track_id, true))
+        );
         // Seen again: a new track, re-identified as the old one, brings the id back.
         let mut merged = false;
         for _ in 0..30 {
@@ -734,7 +737,10 @@ mod tests {
             changes,
             vec![Change::Lost { track_id }, Change::Restored { track_id }]
         );
-        assert_eq!(s.selected().map(|s| (s.track_id, s.lost)), Some((track_id, false)));
+        assert_eq!(
+            s.selected().map(|s| (s.track_id, s.lost)),
+            Some((track_id, false))
+        );
     }
 
     #[test]

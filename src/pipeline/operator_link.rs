@@ -2,8 +2,8 @@
 //! the selection ([`crate::operator`]), and the timing of the selected track's status.
 
 use crate::frame::GeoFix;
-use crate::mavlink::{OperatorRequest, Outputs};
 use crate::health::{Level, Notice};
+use crate::mavlink::{OperatorRequest, Outputs};
 use crate::operator::{Candidate, Change, Mode, Outcome, Presence, Selection};
 use crate::report::{TrackingMode, TrackingStatus};
 use crate::track::{FrameOutput, TrackOutput, Tracker};

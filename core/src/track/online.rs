@@ -303,7 +303,9 @@ impl Tracker {
     /// `reid.memory_max_s` has passed; never while ReID (short- or long-term) is off.
     pub fn remembers(&self, id: u64) -> bool {
         let reid = &self.params.reid;
-        reid.enabled && (reid.short_term || reid.long_term) && self.memory.iter().any(|m| m.id == id)
+        reid.enabled
+            && (reid.short_term || reid.long_term)
+            && self.memory.iter().any(|m| m.id == id)
     }
 
     /// Every track the tracker keeps after the last step, in any state (the step output
