@@ -5,16 +5,24 @@
 //! would see no track at all. STATUSTEXT passes, and every ground station shows it. The digest
 //! turns the track reports into short texts (at most [`TEXT_LEN`] characters, one STATUSTEXT
 //! each):
-//! - a new object, once, when it is first geolocated: `mgmot new swimmer #12 47.672345,9.268012`;
+//! - a new object, once, when it is first seen with a position:
+//!   `mgmot new swimmer #12 47.672345,9.268012`;
 //! - every period, a count by class (`mgmot 5 tracks: 3 swimmer, 2 boat`) and the latest
 //!   position of up to `max_positions` of them, the most recently seen first
 //!   (`mgmot #12 swimmer 47.672345,9.268012 4s ago`).
 //!
-//! A re-identified track keeps its announcement: the id it had is forgotten and the new one is
-//! not announced again. Pure: times (the frames' autopilot times) are passed in.
+//! An id is announced once in a flight: a re-identified track keeps its announcement (the id
+//! it had is dropped and the old id it carries now is not announced again), and an object
+//! re-found under its old id after the digest forgot it (a minute unreported) is not announced
+//! again either. A position is where the object was last *seen* (a report that matched a
+//! detection): the filters' predictions while a track coasts are not listed as positions, so
+//! "4s ago" is the time since the object was last in sight.
+//!
+//! Pure: the caller passes its time, on a clock that never goes back or restarts (not the
+//! autopilot's, which restarts at a reboot): every age is measured on it.
 
 use crate::report::TrackReport;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// The longest text: STATUSTEXT's 50 characters.
 pub const TEXT_LEN: usize = 50;
@@ -24,6 +32,12 @@ const CLASSES: [&str; 6] = ["object", "swimmer", "boat", "jetski", "lifebuoy", "
 
 /// A track is dropped from the digest when it has not been reported for this long (µs).
 const FORGET_US: u64 = 60_000_000;
+
+/// The most announced ids remembered (a few hundred kB at most). A flight sees thousands of
+/// track ids, far fewer of them geolocated objects; beyond this the lowest ids (the tracker
+/// hands ids out in increasing order, so the objects announced first) are forgotten, and only
+/// such an object, re-found after that many others, could be announced a second time.
+pub const MAX_ANNOUNCED: usize = 1 << 16;
 
 /// How often and how much.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -37,9 +51,9 @@ pub struct DigestSettings {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Seen {
     class_id: u32,
-    /// Latest geolocated position (lat, lon in degrees) and when.
+    /// Latest position seen (lat, lon in degrees) and when (caller's clock, µs).
     position: Option<(f64, f64, u64)>,
-    /// Latest report of any kind.
+    /// Latest report of any kind (caller's clock, µs).
     last_us: u64,
 }
 
@@ -48,8 +62,9 @@ struct Seen {
 pub struct Digest {
     settings: DigestSettings,
     tracks: BTreeMap<u64, Seen>,
-    /// Ids whose "new" text was sent (or that continue one that was).
-    announced: std::collections::BTreeSet<u64>,
+    /// Ids whose "new" text was sent (or that continue one that was), for the whole flight
+    /// (at most [`MAX_ANNOUNCED`]).
+    announced: BTreeSet<u64>,
     last_digest_us: Option<u64>,
 }
 
@@ -59,39 +74,44 @@ impl Digest {
         Self {
             settings,
             tracks: BTreeMap::new(),
-            announced: Default::default(),
+            announced: BTreeSet::new(),
             last_digest_us: None,
         }
     }
 
-    /// Takes one track report; returns the "new object" text when this is the first
-    /// geolocated report of an object. Provisional reports are ignored: the track may still
-    /// turn out to be an object already announced.
-    pub fn observe(&mut self, r: &TrackReport) -> Option<String> {
+    /// Takes one track report, observed at `now_us` (the caller's clock, which never goes
+    /// back); returns the "new object" text when this is the first report of an object seen
+    /// with a position. Provisional reports are ignored: the track may still turn out to be
+    /// an object already announced.
+    pub fn observe(&mut self, r: &TrackReport, now_us: u64) -> Option<String> {
         if r.provisional {
             return None;
         }
-        let now = r.time.0;
         if let Some(old) = r.merged_from_id {
-            // The same object under its older id: keep what was said about it.
+            // The same object under its older id: keep what was said about it. The id it had
+            // is never reported again.
             if self.announced.remove(&old) {
-                self.announced.insert(r.track_id);
+                self.remember_announced(r.track_id);
             }
             self.tracks.remove(&old);
         }
-        let position = r.geo.map(|g| (g.position.lat_deg, g.position.lon_deg, now));
+        // A coasting report's position is the filters' prediction, not a sighting.
+        let position = r
+            .geo
+            .filter(|_| r.tracked)
+            .map(|g| (g.position.lat_deg, g.position.lon_deg, now_us));
         let seen = self.tracks.entry(r.track_id).or_insert(Seen {
             class_id: r.class_id,
             position: None,
-            last_us: now,
+            last_us: now_us,
         });
         seen.class_id = r.class_id;
-        seen.last_us = now;
+        seen.last_us = now_us;
         if position.is_some() {
             seen.position = position;
         }
         let (lat, lon, _) = position?;
-        self.announced.insert(r.track_id).then(|| {
+        self.remember_announced(r.track_id).then(|| {
             clip(format!(
                 "mgmot new {} #{} {lat:.6},{lon:.6}",
                 class_name(r.class_id),
@@ -100,19 +120,18 @@ impl Digest {
         })
     }
 
-    /// The periodic texts due at autopilot time `now_us` (none before a period has passed
-    /// since the last, or while nothing is tracked).
-    pub fn due(&mut self, now_us: u64) -> Vec<String> {
-        if self.last_digest_us.is_some_and(|t| now_us < t) {
-            // The autopilot's clock went back (a reboot): restart the ages from now.
-            for s in self.tracks.values_mut() {
-                s.last_us = now_us;
-                if let Some(p) = s.position.as_mut() {
-                    p.2 = now_us;
-                }
-            }
-            self.last_digest_us = None;
+    /// Marks `id` announced; `false` if it was already. Keeps at most [`MAX_ANNOUNCED`] ids.
+    fn remember_announced(&mut self, id: u64) -> bool {
+        let fresh = self.announced.insert(id);
+        while self.announced.len() > MAX_ANNOUNCED {
+            self.announced.pop_first();
         }
+        fresh
+    }
+
+    /// The periodic texts due at `now_us` (the caller's clock, which never goes back; none
+    /// before a period has passed since the last, or while nothing is tracked).
+    pub fn due(&mut self, now_us: u64) -> Vec<String> {
         if self
             .last_digest_us
             .is_some_and(|t| now_us.saturating_sub(t) < self.settings.every_us)
@@ -121,9 +140,6 @@ impl Digest {
         }
         self.tracks
             .retain(|_, s| now_us.saturating_sub(s.last_us) < FORGET_US);
-        let announced = &mut self.announced;
-        let tracks = &self.tracks;
-        announced.retain(|id| tracks.contains_key(id));
         if self.tracks.is_empty() {
             return Vec::new();
         }
@@ -207,36 +223,85 @@ mod tests {
         max_positions: 2,
     };
 
+    /// Observes `r` at its own time (for the tests where the caller's clock and the
+    /// autopilot's agree).
+    fn observe(d: &mut Digest, r: &TrackReport) -> Option<String> {
+        d.observe(r, r.time.0)
+    }
+
     #[test]
     fn a_new_object_is_announced_once_when_first_geolocated() {
         let mut d = Digest::new(SETTINGS);
-        assert_eq!(d.observe(&report(3, 1, 1.0, None)), None, "no position yet");
         assert_eq!(
-            d.observe(&report(3, 1, 1.5, Some((-35.3632611, 149.1652299)))),
+            observe(&mut d, &report(3, 1, 1.0, None)),
+            None,
+            "no position yet"
+        );
+        assert_eq!(
+            observe(&mut d, &report(3, 1, 1.5, Some((-35.3632611, 149.1652299)))),
             Some("mgmot new swimmer #3 -35.363261,149.165230".to_owned())
         );
-        assert_eq!(d.observe(&report(3, 1, 2.0, Some((-35.36, 149.16)))), None);
+        assert_eq!(
+            observe(&mut d, &report(3, 1, 2.0, Some((-35.36, 149.16)))),
+            None
+        );
     }
 
     #[test]
     fn a_reidentified_track_is_not_announced_again() {
         let mut d = Digest::new(SETTINGS);
-        assert!(d.observe(&report(3, 1, 1.0, Some((47.0, 9.0)))).is_some());
+        assert!(observe(&mut d, &report(3, 1, 1.0, Some((47.0, 9.0)))).is_some());
         let mut merged = report(7, 1, 20.0, Some((47.0, 9.0)));
         merged.merged_from_id = Some(3);
-        assert_eq!(d.observe(&merged), None);
+        assert_eq!(observe(&mut d, &merged), None);
         let texts = d.due(20_000_000);
         assert_eq!(texts[0], "mgmot 1 tracks: 1 swimmer", "{texts:?}");
+    }
+
+    #[test]
+    fn an_object_refound_after_a_minute_is_not_announced_again() {
+        let mut d = Digest::new(SETTINGS);
+        assert!(observe(&mut d, &report(12, 1, 1.0, Some((47.0, 9.0)))).is_some());
+        assert_eq!(d.due(1_000_000).len(), 2);
+        // Out of sight for 90 s: the digest forgets it...
+        assert!(d.due(91_000_000).is_empty());
+        // ...and ReID brings it back under its old id.
+        let mut back = report(12, 1, 92.0, Some((47.001, 9.001)));
+        back.merged_from_id = Some(40);
+        assert_eq!(observe(&mut d, &back), None, "#12 was announced at 1 s");
+        assert_eq!(d.due(92_000_000)[0], "mgmot 1 tracks: 1 swimmer");
+        // Its new id, once announced, hands the announcement over too.
+        assert!(observe(&mut d, &report(41, 2, 93.0, Some((47.1, 9.1)))).is_some());
+        assert!(d.due(200_000_000).is_empty());
+        let mut boat = report(5, 2, 201.0, Some((47.1, 9.1)));
+        boat.merged_from_id = Some(41);
+        assert_eq!(observe(&mut d, &boat), None, "#41 was announced at 93 s");
+    }
+
+    #[test]
+    fn the_announced_ids_are_bounded() {
+        let mut d = Digest::new(SETTINGS);
+        let n = MAX_ANNOUNCED as u64 + 10;
+        for id in 1..=n {
+            assert!(observe(&mut d, &report(id, 1, id as f64, Some((47.0, 9.0)))).is_some());
+        }
+        assert_eq!(d.announced.len(), MAX_ANNOUNCED);
+        // The latest ids are still known; the first ones gave way.
+        assert_eq!(
+            observe(&mut d, &report(n, 1, n as f64, Some((47.0, 9.0)))),
+            None
+        );
+        assert!(observe(&mut d, &report(1, 1, n as f64, Some((47.0, 9.0)))).is_some());
     }
 
     #[test]
     fn the_digest_counts_by_class_and_lists_the_latest_positions() {
         let mut d = Digest::new(SETTINGS);
         assert!(d.due(0).is_empty(), "nothing tracked: nothing said");
-        d.observe(&report(1, 1, 1.0, Some((47.1, 9.1))));
-        d.observe(&report(2, 2, 2.0, Some((47.2, 9.2))));
-        d.observe(&report(4, 1, 3.0, Some((47.4, 9.4))));
-        d.observe(&report(5, 1, 3.5, None));
+        observe(&mut d, &report(1, 1, 1.0, Some((47.1, 9.1))));
+        observe(&mut d, &report(2, 2, 2.0, Some((47.2, 9.2))));
+        observe(&mut d, &report(4, 1, 3.0, Some((47.4, 9.4))));
+        observe(&mut d, &report(5, 1, 3.5, None));
         let texts = d.due(5_000_000);
         assert_eq!(
             texts,
@@ -253,14 +318,51 @@ mod tests {
     }
 
     #[test]
-    fn a_clock_that_goes_back_does_not_stop_the_digest() {
+    fn ages_go_on_across_an_autopilot_reboot() {
         let mut d = Digest::new(SETTINGS);
-        d.observe(&report(1, 1, 100.0, Some((47.1, 9.1))));
+        // Seen at autopilot time 100 s, 100 s into the caller's clock.
+        d.observe(&report(1, 1, 100.0, Some((47.1, 9.1))), 100_000_000);
         assert_eq!(d.due(100_000_000).len(), 2);
-        // The autopilot rebooted: its clock restarts near 0.
-        assert_eq!(d.due(5_000_000).len(), 2, "due at once after the jump back");
-        assert!(d.due(6_000_000).is_empty());
-        assert_eq!(d.due(15_000_000).len(), 2);
+        // The autopilot reboots; 20 s later its clock reads 20 s, the caller's 120 s, and
+        // nothing has been seen since.
+        assert_eq!(
+            d.due(120_000_000),
+            vec![
+                "mgmot 1 tracks: 1 swimmer".to_owned(),
+                "mgmot #1 swimmer 47.100000,9.100000 20s ago".to_owned(),
+            ]
+        );
+        // A report stamped on the restarted autopilot clock is aged on the caller's.
+        d.observe(&report(2, 2, 25.0, Some((47.2, 9.2))), 125_000_000);
+        assert_eq!(
+            d.due(130_000_000)[1..],
+            [
+                "mgmot #2 boat 47.200000,9.200000 5s ago".to_owned(),
+                "mgmot #1 swimmer 47.100000,9.100000 30s ago".to_owned(),
+            ]
+        );
+    }
+
+    #[test]
+    fn a_coasting_track_keeps_the_position_it_was_last_seen_at() {
+        let mut d = Digest::new(SETTINGS);
+        observe(&mut d, &report(1, 1, 1.0, Some((47.1, 9.1))));
+        // Not detected: the report's position is the filters' prediction.
+        let mut coasting = report(1, 1, 4.0, Some((47.2, 9.2)));
+        coasting.tracked = false;
+        observe(&mut d, &coasting);
+        assert_eq!(
+            d.due(5_000_000),
+            vec![
+                "mgmot 1 tracks: 1 swimmer".to_owned(),
+                "mgmot #1 swimmer 47.100000,9.100000 4s ago".to_owned(),
+            ]
+        );
+        // A track first reported while coasting is not announced from a prediction.
+        let mut new_coasting = report(2, 1, 6.0, Some((47.3, 9.3)));
+        new_coasting.tracked = false;
+        assert_eq!(observe(&mut d, &new_coasting), None);
+        assert!(observe(&mut d, &report(2, 1, 7.0, Some((47.3, 9.3)))).is_some());
     }
 
     #[test]
@@ -270,9 +372,11 @@ mod tests {
             max_positions: 10,
         });
         let big = u64::MAX / 3;
-        let text = d
-            .observe(&report(big, 99, 1.0, Some((-89.999999, -179.999999))))
-            .unwrap();
+        let text = observe(
+            &mut d,
+            &report(big, 99, 1.0, Some((-89.999999, -179.999999))),
+        )
+        .unwrap();
         assert!(text.len() <= TEXT_LEN, "{text}");
         for t in d.due(2_000_000) {
             assert!(t.len() <= TEXT_LEN, "{t}");

@@ -5,7 +5,7 @@
 //! Pure and synchronous: the caller hands in the tracker's boxes and merge events and sends
 //! whatever MAVLink the outcome calls for.
 
-use crate::track::{BBox, MergeEvent};
+use crate::track::{BBox, MergeEvent, Tracker};
 
 /// How far from a track's box a click may land and still select it, as a fraction of the
 /// image width, when the command gives no radius: about a fingertip on a tablet showing the
@@ -137,6 +137,57 @@ pub struct Selected {
     pub track_id: u64,
     /// How it was selected.
     pub mode: Mode,
+    /// The tracker no longer keeps the track, but its ReID memory does: the selection waits
+    /// for re-identification to bring the id back, and has no box or position meanwhile.
+    pub lost: bool,
+}
+
+/// Where the tracker stands with a track id, as [`Selection::follow`] asks it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Presence {
+    /// A track the tracker keeps (tracked, or lost and still predicted) carries the id.
+    Live,
+    /// No track carries it, but the ReID memory keeps the ended track: a new track may still
+    /// be re-identified as it and take the id back.
+    Remembered,
+    /// Neither: the id will not come back.
+    Gone,
+}
+
+impl Presence {
+    /// Where `tracker` stands with `id` after its last step: a kept track reports it (under
+    /// its own id, or provisionally as the old id it may take), else its ReID memory holds it
+    /// ([`Tracker::remembers`]), else it is gone.
+    pub fn of(tracker: &Tracker, id: u64) -> Self {
+        if tracker.live_tracks().any(|t| t.id == id) {
+            Presence::Live
+        } else if tracker.remembers(id) {
+            Presence::Remembered
+        } else {
+            Presence::Gone
+        }
+    }
+}
+
+/// What a tracker step did to the selection ([`Selection::follow`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Change {
+    /// The selected track is lost: kept until re-identification brings it back or the ReID
+    /// memory gives up on it.
+    Lost {
+        /// The selected track.
+        track_id: u64,
+    },
+    /// A lost selection's track is back (re-identified), under the same id.
+    Restored {
+        /// The selected track.
+        track_id: u64,
+    },
+    /// The selection ended: the track can no longer come back.
+    Ended {
+        /// The track that was selected.
+        track_id: u64,
+    },
 }
 
 /// The operator's selection, kept across frames.
@@ -191,7 +242,11 @@ impl Selection {
         };
         match picked {
             Ok((track_id, mode)) => {
-                self.selected = Some(Selected { track_id, mode });
+                self.selected = Some(Selected {
+                    track_id,
+                    mode,
+                    lost: false,
+                });
                 Outcome::Selected { track_id, mode }
             }
             Err(r) => Outcome::Refused(r),
@@ -200,20 +255,36 @@ impl Selection {
 
     /// Keeps the selection on its track after a tracker step: follows re-identification merges
     /// (the selected id was a new track that turned out to be an old one and carries the old
-    /// id now), then ends the selection when the track no longer exists (`is_alive` says
-    /// whether the tracker still keeps an id, tracked or lost). Returns the id of a selection
-    /// that ended here.
-    pub fn follow(&mut self, merges: &[MergeEvent], is_alive: impl Fn(u64) -> bool) -> Option<u64> {
+    /// id now), then asks `presence` where the tracker stands with the id. A track no longer
+    /// kept but still in the ReID memory leaves the selection lost (not ended): when a merge
+    /// brings the id back it is restored; when the memory gives up on it, it ends. Returns
+    /// what changed.
+    pub fn follow(
+        &mut self,
+        merges: &[MergeEvent],
+        presence: impl Fn(u64) -> Presence,
+    ) -> Option<Change> {
         let sel = self.selected.as_mut()?;
         for m in merges {
             if m.new_id == sel.track_id {
                 sel.track_id = m.merged_into_id;
             }
         }
-        if is_alive(sel.track_id) {
-            None
-        } else {
-            self.selected.take().map(|s| s.track_id)
+        let track_id = sel.track_id;
+        match (presence(track_id), sel.lost) {
+            (Presence::Live, false) | (Presence::Remembered, true) => None,
+            (Presence::Live, true) => {
+                sel.lost = false;
+                Some(Change::Restored { track_id })
+            }
+            (Presence::Remembered, false) => {
+                sel.lost = true;
+                Some(Change::Lost { track_id })
+            }
+            (Presence::Gone, _) => {
+                self.selected = None;
+                Some(Change::Ended { track_id })
+            }
         }
     }
 }
@@ -300,6 +371,8 @@ fn pick_in_rectangle(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::track::{Detection, FrameInput, TrackerParams, WorldObservation};
+    use nalgebra::{Matrix2, Vector2};
     use proptest::prelude::*;
 
     const SIZE: (u32, u32) = (1000, 500);
@@ -489,27 +562,225 @@ mod tests {
         assert_eq!(o.result(), CommandResult::Accepted);
     }
 
+    /// Live while `live` holds the id, remembered while `memory` does, gone otherwise.
+    fn presence<'a>(live: &'a [u64], memory: &'a [u64]) -> impl Fn(u64) -> Presence + 'a {
+        move |id| {
+            if live.contains(&id) {
+                Presence::Live
+            } else if memory.contains(&id) {
+                Presence::Remembered
+            } else {
+                Presence::Gone
+            }
+        }
+    }
+
     #[test]
     fn the_selection_follows_a_reid_merge_and_ends_when_the_track_is_removed() {
         let tracks = [track(12, 100.0, 100.0, 10.0, 10.0)];
         let mut s = Selection::new(DEFAULT_POINT_RADIUS);
         s.command(&point(0.105, 0.21), &tracks, Some(SIZE));
         // Track 12 is recognised as old track 3: it is reported as 3 from now on.
-        assert_eq!(s.follow(&[merge(12, 3)], |id| id == 3), None);
+        assert_eq!(s.follow(&[merge(12, 3)], presence(&[3], &[])), None);
         assert_eq!(
             s.selected(),
             Some(Selected {
                 track_id: 3,
-                mode: Mode::Point
+                mode: Mode::Point,
+                lost: false,
             })
         );
         // A merge of some other track changes nothing.
-        assert_eq!(s.follow(&[merge(20, 4)], |id| id == 3), None);
+        assert_eq!(s.follow(&[merge(20, 4)], presence(&[3], &[])), None);
         assert_eq!(s.selected().map(|s| s.track_id), Some(3));
-        // Track 3 expires.
-        assert_eq!(s.follow(&[], |_| false), Some(3));
+        // Track 3 expires, and ReID does not remember it.
+        assert_eq!(
+            s.follow(&[], presence(&[], &[])),
+            Some(Change::Ended { track_id: 3 })
+        );
         assert_eq!(s.selected(), None);
-        assert_eq!(s.follow(&[], |_| false), None);
+        assert_eq!(s.follow(&[], presence(&[], &[])), None);
+    }
+
+    #[test]
+    fn a_lost_selection_waits_for_reid_and_is_restored_under_its_id() {
+        let tracks = [track(5, 100.0, 100.0, 10.0, 10.0)];
+        let mut s = Selection::new(DEFAULT_POINT_RADIUS);
+        s.command(&point(0.105, 0.21), &tracks, Some(SIZE));
+        // The tracker's lost buffer gives track 5 up; its ReID memory keeps it.
+        assert_eq!(
+            s.follow(&[], presence(&[], &[5])),
+            Some(Change::Lost { track_id: 5 })
+        );
+        assert_eq!(
+            s.selected(),
+            Some(Selected {
+                track_id: 5,
+                mode: Mode::Point,
+                lost: true,
+            })
+        );
+        // Lost it stays, frame after frame, whatever else is merged.
+        assert_eq!(s.follow(&[merge(8, 2)], presence(&[2, 9], &[5])), None);
+        assert_eq!(s.selected().map(|s| (s.track_id, s.lost)), Some((5, true)));
+        // Track 9 is re-identified as 5: the selection is back on 5.
+        assert_eq!(
+            s.follow(&[merge(9, 5)], presence(&[2, 5], &[])),
+            Some(Change::Restored { track_id: 5 })
+        );
+        assert_eq!(
+            s.selected(),
+            Some(Selected {
+                track_id: 5,
+                mode: Mode::Point,
+                lost: false,
+            })
+        );
+        // Lost again; this time the memory gives up on it: the selection ends.
+        assert_eq!(
+            s.follow(&[], presence(&[2], &[5])),
+            Some(Change::Lost { track_id: 5 })
+        );
+        assert_eq!(
+            s.follow(&[], presence(&[2], &[])),
+            Some(Change::Ended { track_id: 5 })
+        );
+        assert_eq!(s.selected(), None);
+    }
+
+    #[test]
+    fn a_new_selection_replaces_a_lost_one() {
+        let tracks = [track(5, 100.0, 100.0, 10.0, 10.0)];
+        let mut s = Selection::new(DEFAULT_POINT_RADIUS);
+        s.command(&point(0.105, 0.21), &tracks, Some(SIZE));
+        s.follow(&[], presence(&[], &[5]));
+        let other = [track(6, 500.0, 250.0, 20.0, 10.0)];
+        s.command(&point(0.51, 0.51), &other, Some(SIZE));
+        assert_eq!(s.selected().map(|s| (s.track_id, s.lost)), Some((6, false)));
+        assert_eq!(s.follow(&[], presence(&[6], &[5])), None);
+    }
+
+    /// A swimmer at a fixed spot on the sea, seen at 20 frames per second, hidden for
+    /// `hidden` frames (longer than the tracker's lost buffer), then seen again.
+    fn swimmer_frame(i: u64, visible: bool) -> FrameInput {
+        FrameInput {
+            frame_index: i,
+            time_s: i as f64 / 20.0,
+            image_size_px: (1000, 500),
+            detections: visible
+                .then(|| Detection {
+                    bbox: BBox::from_center(300.0, 200.0, 12.0, 12.0),
+                    score: 0.9,
+                    class_id: 1,
+                    world: Some(WorldObservation {
+                        pos_ne_m: Vector2::new(20.0, 5.0),
+                        cov_ne_m2: Matrix2::identity() * 0.25,
+                    }),
+                    appearance: None,
+                })
+                .into_iter()
+                .collect(),
+            image_motion: None,
+        }
+    }
+
+    #[test]
+    fn a_selected_swimmer_lost_past_the_buffer_is_restored_by_long_term_reid() {
+        let params = TrackerParams::default();
+        let buffer = params.baseline.track_buffer_frames;
+        let mut tracker = Tracker::new(params).unwrap();
+        let mut s = Selection::new(DEFAULT_POINT_RADIUS);
+        let mut frame = 0;
+        let mut step = |tracker: &mut Tracker, s: &mut Selection, visible: bool| {
+            frame += 1;
+            let out = tracker.step(&swimmer_frame(frame, visible)).unwrap();
+            let change = s.follow(&out.merges, |id| Presence::of(tracker, id));
+            (out, change)
+        };
+        let mut candidates = Vec::new();
+        for _ in 0..30 {
+            let (out, change) = step(&mut tracker, &mut s, true);
+            assert_eq!(change, None);
+            candidates = out
+                .tracks
+                .iter()
+                .map(|t| Candidate {
+                    id: t.id,
+                    bbox: t.bbox,
+                })
+                .collect();
+        }
+        let Outcome::Selected { track_id, .. } =
+            s.command(&point(0.3, 0.4), &candidates, Some(SIZE))
+        else {
+            panic!("nothing selected in {candidates:?}");
+        };
+        // Hidden for twice the lost buffer: lost, not ended.
+        let mut changes = Vec::new();
+        for _ in 0..2 * buffer {
+            changes.extend(step(&mut tracker, &mut s, false).1);
+        }
+        assert_eq!(changes, vec![Change::Lost { track_id }]);
+        assert_eq!(
+            s.selected().map(|s| (s.track_id, s.lost)),
+            Some((track_id, true))
+        );
+        // Seen again: a new track, re-identified as the old one, brings the id back.
+        let mut merged = false;
+        for _ in 0..30 {
+            let (out, change) = step(&mut tracker, &mut s, true);
+            merged |= out.merges.iter().any(|m| m.merged_into_id == track_id);
+            changes.extend(change);
+        }
+        assert!(merged, "no ReID merge into {track_id}");
+        assert_eq!(
+            changes,
+            vec![Change::Lost { track_id }, Change::Restored { track_id }]
+        );
+        assert_eq!(
+            s.selected().map(|s| (s.track_id, s.lost)),
+            Some((track_id, false))
+        );
+    }
+
+    #[test]
+    fn a_selection_ends_when_the_reid_memory_gives_up_on_its_track() {
+        let mut params = TrackerParams::default();
+        // Lost buffer 100 frames (5 s), memory 8 s.
+        params.reid.memory_max_s = 8.0;
+        let mut tracker = Tracker::new(params).unwrap();
+        let mut s = Selection::new(DEFAULT_POINT_RADIUS);
+        let mut candidates = Vec::new();
+        for i in 1..=30 {
+            let out = tracker.step(&swimmer_frame(i, true)).unwrap();
+            candidates = out
+                .tracks
+                .iter()
+                .map(|t| Candidate {
+                    id: t.id,
+                    bbox: t.bbox,
+                })
+                .collect();
+        }
+        s.command(&point(0.3, 0.4), &candidates, Some(SIZE));
+        let track_id = s.selected().map(|s| s.track_id).unwrap();
+        let mut changes = Vec::new();
+        for i in 31..=330 {
+            let out = tracker.step(&swimmer_frame(i, false)).unwrap();
+            changes.extend(
+                s.follow(&out.merges, |id| Presence::of(&tracker, id))
+                    .map(|c| (i, c)),
+            );
+        }
+        // Lost after the buffer (last seen at frame 30), ended 8 s after it was last seen.
+        assert_eq!(
+            changes,
+            vec![
+                (131, Change::Lost { track_id }),
+                (191, Change::Ended { track_id }),
+            ]
+        );
+        assert_eq!(s.selected(), None);
     }
 
     fn arb_tracks() -> impl Strategy<Value = Vec<Candidate>> {
@@ -604,7 +875,7 @@ mod tests {
                     .collect();
                 merges.insert(i % (merges.len() + 1), merge(expected, into));
                 expected = into;
-                prop_assert_eq!(s.follow(&merges, |id| id == expected), None);
+                prop_assert_eq!(s.follow(&merges, presence(&[expected], &[])), None);
                 prop_assert_eq!(s.selected().map(|s| s.track_id), Some(expected));
             }
         }

@@ -10,15 +10,16 @@
 use super::decode::{decode, decode_mount_status, CameraCommand, Incoming};
 use super::dialect::MavCmd;
 use super::encode::{
-    camera_information, camera_tracking_geo_status, camera_tracking_image_status, command_ack,
-    heartbeat, mgmot_track, statustext, target_absolute, AckResult, Severity,
+    camera_information, camera_tracking_geo_status, camera_tracking_geo_status_lost,
+    camera_tracking_image_status, camera_tracking_image_status_lost, command_ack, heartbeat,
+    mgmot_track, statustext, target_absolute, AckResult, Severity,
 };
 use super::link::{Link, LinkError, LinkEvent, LinkSender, LinkSettings, OnSent, Received};
 use crate::geo::Geodetic;
 use crate::health::{Level, Notice};
 use crate::logging::LogThrottle;
 use crate::operator::{CommandResult, Request};
-use crate::report::{TrackReport, TrackingStatus};
+use crate::report::{TrackReport, TrackingMode, TrackingStatus};
 use crate::telemetry::{
     AttitudeSample, AutopilotTimeUs, CompanionTimeUs, GimbalSample, PositionFix,
 };
@@ -294,6 +295,14 @@ impl Outputs {
     pub fn tracking_status(&self, status: Option<&TrackingStatus>) {
         self.sender.send(camera_tracking_image_status(status));
         self.sender.send(camera_tracking_geo_status(status));
+    }
+
+    /// The status of a selection whose track is lost, waiting for re-identification
+    /// (CAMERA_TRACKING_IMAGE_STATUS and CAMERA_TRACKING_GEO_STATUS: ACTIVE | ERROR, no
+    /// target).
+    pub fn tracking_lost(&self, mode: TrackingMode) {
+        self.sender.send(camera_tracking_image_status_lost(mode));
+        self.sender.send(camera_tracking_geo_status_lost());
     }
 
     /// Answers an operator request (COMMAND_ACK).

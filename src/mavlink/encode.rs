@@ -232,11 +232,10 @@ fn tracking_flags(s: &TrackingStatus) -> CameraTrackingStatusFlags {
     flags
 }
 
-/// CAMERA_TRACKING_IMAGE_STATUS: the selected track's box (`Some`), or "not tracking"
-/// (`None`: status IDLE, mode NONE, every coordinate NaN).
-pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
+/// "Not tracking": status IDLE, mode NONE, every coordinate NaN.
+fn image_status_idle() -> CAMERA_TRACKING_IMAGE_STATUS_DATA {
     let nan = f32::NAN;
-    let mut m = CAMERA_TRACKING_IMAGE_STATUS_DATA {
+    CAMERA_TRACKING_IMAGE_STATUS_DATA {
         tracking_status: CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE,
         tracking_mode: CameraTrackingMode::CAMERA_TRACKING_MODE_NONE,
         target_data: CameraTrackingTargetData::empty(),
@@ -248,7 +247,34 @@ pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
         rec_bottom_x: nan,
         rec_bottom_y: nan,
         camera_device_id: 0,
-    };
+    }
+}
+
+/// "Not tracking": status IDLE, lat = lon = 0, every other field NaN.
+fn geo_status_idle() -> CAMERA_TRACKING_GEO_STATUS_DATA {
+    let nan = f32::NAN;
+    CAMERA_TRACKING_GEO_STATUS_DATA {
+        tracking_status: CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE,
+        lat: 0,
+        lon: 0,
+        alt: nan,
+        h_acc: nan,
+        v_acc: nan,
+        vel_n: nan,
+        vel_e: nan,
+        vel_d: nan,
+        vel_acc: nan,
+        dist: nan,
+        hdg: nan,
+        hdg_acc: nan,
+        camera_device_id: 0,
+    }
+}
+
+/// CAMERA_TRACKING_IMAGE_STATUS: the selected track's box (`Some`), or "not tracking"
+/// (`None`: status IDLE, mode NONE, every coordinate NaN).
+pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
+    let mut m = image_status_idle();
     if let Some(s) = s {
         let [x, y, w, h] = s.bbox_norm;
         m.tracking_status = tracking_flags(s);
@@ -273,6 +299,30 @@ pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
     MavMessage::CAMERA_TRACKING_IMAGE_STATUS(m)
 }
 
+/// CAMERA_TRACKING_IMAGE_STATUS of a selection whose track is lost, waiting for
+/// re-identification to bring it back: ACTIVE | ERROR (tracking on, target not found) in the
+/// selection's mode, no target data, every coordinate NaN ("unknown").
+pub fn camera_tracking_image_status_lost(mode: TrackingMode) -> MavMessage {
+    let mut m = image_status_idle();
+    m.tracking_status = CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+        | CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR;
+    m.tracking_mode = match mode {
+        TrackingMode::Point => CameraTrackingMode::CAMERA_TRACKING_MODE_POINT,
+        TrackingMode::Rectangle => CameraTrackingMode::CAMERA_TRACKING_MODE_RECTANGLE,
+    };
+    MavMessage::CAMERA_TRACKING_IMAGE_STATUS(m)
+}
+
+/// CAMERA_TRACKING_GEO_STATUS of a selection whose track is lost, waiting for
+/// re-identification: ACTIVE | ERROR with lat = lon = 0 and every other field NaN, as for a
+/// selected track without geolocation.
+pub fn camera_tracking_geo_status_lost() -> MavMessage {
+    let mut m = geo_status_idle();
+    m.tracking_status = CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+        | CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR;
+    MavMessage::CAMERA_TRACKING_GEO_STATUS(m)
+}
+
 /// CAMERA_TRACKING_GEO_STATUS: the selected track's position on the sea (`Some`), or "not
 /// tracking" (`None`: status IDLE). A selected track without geolocation (no telemetry pose)
 /// is reported ACTIVE | ERROR with lat = lon = 0 and every other field NaN: the message has
@@ -280,23 +330,7 @@ pub fn camera_tracking_image_status(s: Option<&TrackingStatus>) -> MavMessage {
 /// `alt` = the water level; `h_acc` is the DRMS of the position (as in MGMOT_TRACK);
 /// the heading is that of the velocity, NaN while the speed is within its own uncertainty.
 pub fn camera_tracking_geo_status(s: Option<&TrackingStatus>) -> MavMessage {
-    let nan = f32::NAN;
-    let mut m = CAMERA_TRACKING_GEO_STATUS_DATA {
-        tracking_status: CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE,
-        lat: 0,
-        lon: 0,
-        alt: nan,
-        h_acc: nan,
-        v_acc: nan,
-        vel_n: nan,
-        vel_e: nan,
-        vel_d: nan,
-        vel_acc: nan,
-        dist: nan,
-        hdg: nan,
-        hdg_acc: nan,
-        camera_device_id: 0,
-    };
+    let mut m = geo_status_idle();
     let Some(s) = s else {
         return MavMessage::CAMERA_TRACKING_GEO_STATUS(m);
     };
@@ -564,6 +598,41 @@ mod tests {
             g.tracking_status,
             CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_IDLE
         );
+    }
+
+    #[test]
+    fn a_lost_selection_is_active_with_an_error_and_no_target() {
+        let MavMessage::CAMERA_TRACKING_IMAGE_STATUS(i) =
+            round_trip(&camera_tracking_image_status_lost(TrackingMode::Point))
+        else {
+            panic!()
+        };
+        let active_error = CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ACTIVE
+            | CameraTrackingStatusFlags::CAMERA_TRACKING_STATUS_FLAGS_ERROR;
+        assert_eq!(i.tracking_status, active_error);
+        assert_eq!(
+            i.tracking_mode,
+            CameraTrackingMode::CAMERA_TRACKING_MODE_POINT
+        );
+        assert_eq!(i.target_data, CameraTrackingTargetData::empty());
+        assert!(i.point_x.is_nan() && i.radius.is_nan() && i.rec_top_x.is_nan());
+        let MavMessage::CAMERA_TRACKING_IMAGE_STATUS(r) =
+            camera_tracking_image_status_lost(TrackingMode::Rectangle)
+        else {
+            panic!()
+        };
+        assert_eq!(
+            r.tracking_mode,
+            CameraTrackingMode::CAMERA_TRACKING_MODE_RECTANGLE
+        );
+        let MavMessage::CAMERA_TRACKING_GEO_STATUS(g) =
+            round_trip(&camera_tracking_geo_status_lost())
+        else {
+            panic!()
+        };
+        assert_eq!(g.tracking_status, active_error);
+        assert_eq!((g.lat, g.lon), (0, 0));
+        assert!(g.alt.is_nan() && g.h_acc.is_nan() && g.vel_n.is_nan() && g.dist.is_nan());
     }
 
     #[test]

@@ -17,9 +17,10 @@ pub use address::{parse_connection, AddressError};
 pub use bridge::{Inbox, LinkInput, OperatorRequest, Outputs, ReplyTo, TelemetryUpdate};
 pub use decode::{decode, decode_mount_status, CameraCommand, Incoming};
 pub use encode::{
-    camera_information, camera_tracking_geo_status, camera_tracking_image_status, command_ack,
-    heartbeat, message_interval_request, mgmot_track, statustext, target_absolute,
-    timesync_request, AckResult, Severity, STREAMS,
+    camera_information, camera_tracking_geo_status, camera_tracking_geo_status_lost,
+    camera_tracking_image_status, camera_tracking_image_status_lost, command_ack, heartbeat,
+    message_interval_request, mgmot_track, statustext, target_absolute, timesync_request,
+    AckResult, Severity, STREAMS,
 };
 pub use link::{
     Link, LinkEvent, LinkSender, LinkSettings, LinkStats, PacketTap, Received, SigningSettings,

@@ -435,7 +435,11 @@ impl TrackPublisher {
             let report = TrackReport::new(stamp, t, size, merged_from.get(&t.id).copied(), fix(t));
             self.outputs.track(&report, latency_on_sent(timing));
             sent += 1;
-            if let Some(found) = self.digest.as_mut().and_then(|d| d.observe(&report)) {
+            if let Some(found) = self
+                .digest
+                .as_mut()
+                .and_then(|d| d.observe(&report, stamp.0))
+            {
                 self.outputs.notice(&Notice::new(Level::Notice, found));
             }
         }

@@ -2,8 +2,9 @@
 //! the selection ([`crate::operator`]), and the timing of the selected track's status.
 
 use crate::frame::GeoFix;
+use crate::health::{Level, Notice};
 use crate::mavlink::{OperatorRequest, Outputs};
-use crate::operator::{Candidate, Mode, Outcome, Selection};
+use crate::operator::{Candidate, Change, Mode, Outcome, Presence, Selection};
 use crate::report::{TrackingMode, TrackingStatus};
 use crate::track::{FrameOutput, TrackOutput, Tracker};
 use std::sync::mpsc::Receiver;
@@ -61,9 +62,10 @@ impl OperatorLink {
         }
     }
 
-    /// After a tracker step: keep the selection on its track (merges, removal), answer the
-    /// queued requests against this frame's tracks, and send the selected track's status
-    /// when due. `geo` gives a track's fix and distance from the camera.
+    /// After a tracker step: keep the selection on its track (merges; lost while only the
+    /// tracker's ReID memory keeps it, restored when ReID brings it back, ended when the
+    /// memory gives up on it), answer the queued requests against this frame's tracks, and
+    /// send the selected track's status when due. `geo` gives a track's fix and distance from the camera.
     pub fn after_step(
         &mut self,
         output: &FrameOutput,
@@ -81,15 +83,38 @@ impl OperatorLink {
                 id: t.id,
                 bbox: t.bbox,
             }));
-        if let Some(gone) = self.selection.follow(&output.merges, |id| {
-            tracker.live_tracks().any(|t| t.id == id)
-        }) {
-            tracing::warn!(track = gone, "selected track removed: tracking stopped");
-            self.outputs.notice(&crate::health::Notice::new(
-                crate::health::Level::Warning,
-                format!("mgmot: track {gone} gone, tracking stopped"),
-            ));
-            self.outputs.tracking_status(None);
+        match self
+            .selection
+            .follow(&output.merges, |id| Presence::of(tracker, id))
+        {
+            Some(Change::Ended { track_id }) => {
+                tracing::warn!(track = track_id, "selected track removed: tracking stopped");
+                self.outputs.notice(&Notice::new(
+                    Level::Warning,
+                    format!("mgmot: track {track_id} gone, tracking stopped"),
+                ));
+                self.outputs.tracking_status(None);
+            }
+            Some(Change::Lost { track_id }) => {
+                tracing::warn!(
+                    track = track_id,
+                    "selected track lost: kept until ReID brings it back"
+                );
+                self.outputs.notice(&Notice::new(
+                    Level::Warning,
+                    format!("mgmot: track {track_id} lost, awaiting ReID"),
+                ));
+                self.last_status = None;
+            }
+            Some(Change::Restored { track_id }) => {
+                tracing::info!(track = track_id, "selected track back (ReID)");
+                self.outputs.notice(&Notice::new(
+                    Level::Notice,
+                    format!("mgmot: track {track_id} back, tracking"),
+                ));
+                self.last_status = None;
+            }
+            None => {}
         }
         self.answer_requests();
         let Some(selected) = self.selection.selected() else {
@@ -101,6 +126,16 @@ impl OperatorLink {
         {
             return;
         }
+        let mode = match selected.mode {
+            Mode::Point => TrackingMode::Point,
+            Mode::Rectangle => TrackingMode::Rectangle,
+        };
+        if selected.lost {
+            // Out of the tracker, in its ReID memory: no box, no position.
+            self.outputs.tracking_lost(mode);
+            self.last_status = Some(Instant::now());
+            return;
+        }
         // A confirmed track of this frame, or (lost for now) the tracker's prediction.
         let track = output
             .tracks
@@ -110,10 +145,6 @@ impl OperatorLink {
             .or_else(|| tracker.live_tracks().find(|t| t.id == selected.track_id));
         let Some(t) = track else {
             return;
-        };
-        let mode = match selected.mode {
-            Mode::Point => TrackingMode::Point,
-            Mode::Rectangle => TrackingMode::Rectangle,
         };
         let (fix, range_m) = geo(&t);
         let status = TrackingStatus::new(mode, &t, image_size_px, fix, range_m);

@@ -297,6 +297,17 @@ impl Tracker {
         self.tracks.len()
     }
 
+    /// Whether the ReID memory bank still holds an ended track reported as `id`, so that a
+    /// new track may yet be re-identified as it and take `id` back (with a [`MergeEvent`]).
+    /// An ended track stays there until a track takes its id, IoU matching resumes it, or
+    /// `reid.memory_max_s` has passed; never while ReID (short- or long-term) is off.
+    pub fn remembers(&self, id: u64) -> bool {
+        let reid = &self.params.reid;
+        reid.enabled
+            && (reid.short_term || reid.long_term)
+            && self.memory.iter().any(|m| m.id == id)
+    }
+
     /// Every track the tracker keeps after the last step, in any state (the step output
     /// holds the confirmed ones only): lost tracks report their Kalman-predicted box and
     /// their world state predicted to the last frame's time, with no detection.
