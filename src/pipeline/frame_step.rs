@@ -438,13 +438,13 @@ impl TrackPublisher {
             if let Some(found) = self
                 .digest
                 .as_mut()
-                .and_then(|d| d.observe(&report, stamp.0))
+                .and_then(|d| d.observe(&report, now_us))
             {
                 self.outputs.notice(&Notice::new(Level::Notice, found));
             }
         }
         if let Some(d) = self.digest.as_mut() {
-            for text in d.due(stamp.0) {
+            for text in d.due(now_us) {
                 self.outputs.notice(&Notice::new(Level::Info, text));
             }
         }
