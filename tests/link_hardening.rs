@@ -632,7 +632,11 @@ async fn a_command_flood_is_answered_within_the_senders_budget() {
         acks_to((255, 190))
     );
     assert!(acks_to((255, 190)) >= COMMAND_BURST, "{stats:?}");
-    assert_eq!(acks_to((254, 1)), 1.0, "the operator's command was not answered");
+    assert_eq!(
+        acks_to((254, 1)),
+        1.0,
+        "the operator's command was not answered"
+    );
     assert!(
         stats.commands_over_budget as f64 >= sent as f64 - budget,
         "{stats:?}"

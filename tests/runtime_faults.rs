@@ -127,9 +127,7 @@ fn two_sessions(second_us: u64) -> serde_json::Value {
     let listener = UnixListener::bind(&socket).unwrap();
     let stats_path = dir.join("stats.json");
     let boxes: Vec<String> = (0..=400)
-        .map(|id| {
-            format!(r#"{{"image_id":{id},"category_id":1,"bbox":[20,10,6,6],"score":0.9}}"#)
-        })
+        .map(|id| format!(r#"{{"image_id":{id},"category_id":1,"bbox":[20,10,6,6],"score":0.9}}"#))
         .collect();
     let dets = dir.write("dets.json", format!("[{}]", boxes.join(",")));
     let cfg = config_with(&dir, &socket, &dets);

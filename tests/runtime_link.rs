@@ -764,16 +764,22 @@ fn forged_positions_stamped_near_zero_are_no_reboot() {
     let mut sim = start_sim(&s, &link);
     let mut mgmot = start_mgmot(&s);
     let (first, _) = link
-        .wait_for(0, Duration::from_secs(60), |m| {
-            matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t))
-        })
+        .wait_for(
+            0,
+            Duration::from_secs(60),
+            |m| matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t)),
+        )
         .unwrap_or_else(|| panic!("no geolocated track; mgmot: {}", mgmot.log()));
     let (_, lat, lon) = autopilot_now(&link).unwrap();
     let from = link.mark().max(first);
     let forging = std::time::Instant::now();
     let mut k = 0u32;
     while forging.elapsed() < Duration::from_secs(10) {
-        link.send_as(&position(k * 100, lat, lon, 430.0), AUTOPILOT, MavlinkVersion::V1);
+        link.send_as(
+            &position(k * 100, lat, lon, 430.0),
+            AUTOPILOT,
+            MavlinkVersion::V1,
+        );
         k += 1;
         std::thread::sleep(Duration::from_millis(100));
     }
@@ -819,9 +825,11 @@ fn implausible_telemetry_is_refused_reported_once_and_moves_no_track() {
     let link = Link::start(s.mgmot_port);
     let mut sim = start_sim(&s, &link);
     let mut mgmot = start_mgmot(&s);
-    link.wait_for(0, Duration::from_secs(60), |m| {
-        matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t))
-    })
+    link.wait_for(
+        0,
+        Duration::from_secs(60),
+        |m| matches!(m, MavMessage::MGMOT_TRACK(t) if geo_valid(t)),
+    )
     .unwrap_or_else(|| panic!("no geolocated track; mgmot: {}", mgmot.log()));
     let (t0_ms, lat, lon) = autopilot_now(&link).unwrap();
     let forging = std::time::Instant::now();
@@ -843,11 +851,13 @@ fn implausible_telemetry_is_refused_reported_once_and_moves_no_track() {
                 position(now_ms, lat, lon, (fuzz >> 40) as f64 % 5000.0)
             }
             // A gimbal quaternion that is no rotation (norm 1.36).
-            6..=8 => MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
-                time_boot_ms: now_ms,
-                q: [1.3, 0.4, 0.0, 0.0],
-                ..Default::default()
-            }),
+            6..=8 => {
+                MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+                    time_boot_ms: now_ms,
+                    q: [1.3, 0.4, 0.0, 0.0],
+                    ..Default::default()
+                })
+            }
             // Under the sea.
             _ => position(now_ms, lat, lon, -1000.0),
         };
@@ -893,8 +903,14 @@ fn implausible_telemetry_is_refused_reported_once_and_moves_no_track() {
         })
         .filter(|t| t.contains("telemetry"))
         .collect();
-    let refused = texts.iter().filter(|t| t.starts_with("mgmot: telemetry refused")).count();
-    let again = texts.iter().filter(|t| *t == "mgmot: telemetry plausible again").count();
+    let refused = texts
+        .iter()
+        .filter(|t| t.starts_with("mgmot: telemetry refused"))
+        .count();
+    let again = texts
+        .iter()
+        .filter(|t| *t == "mgmot: telemetry plausible again")
+        .count();
     assert_eq!((refused, again), (1, 1), "{texts:?}");
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(s.dir.join("stats.json")).unwrap()).unwrap();

@@ -203,8 +203,7 @@ impl TrackerClock {
             _ => None,
         };
         let jumped = candidate < last_s
-            || elapsed_ref
-                .is_some_and(|e| (candidate - last_s - e).abs() > CLOCK_JUMP_TOLERANCE_S);
+            || elapsed_ref.is_some_and(|e| (candidate - last_s - e).abs() > CLOCK_JUMP_TOLERANCE_S);
         if !jumped {
             self.last = Some((candidate, reference_s));
             return (candidate, None);

@@ -3,7 +3,9 @@
 use super::dialect::{self, GimbalDeviceFlags, MavCmd, MavMessage, CAMERA_INFORMATION_DATA};
 use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::Geodetic;
-use crate::telemetry::{AttitudeSample, AutopilotTimeUs, GimbalSample, PositionFix, PositionSample};
+use crate::telemetry::{
+    AttitudeSample, AutopilotTimeUs, GimbalSample, PositionFix, PositionSample,
+};
 use mavlink_core::MessageData as _;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
@@ -362,11 +364,15 @@ mod tests {
         });
         assert_eq!(decode(&nan, 154, 1, 191), None);
         // A skewed quaternion is decoded with its norm: the pose gate refuses it.
-        let skewed = MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
-            q: [1.2, 0.0, 0.0, 0.0],
-            ..Default::default()
-        });
-        let Some(Incoming::Gimbal { quaternion_norm, .. }) = decode(&skewed, 154, 1, 191) else {
+        let skewed =
+            MavMessage::GIMBAL_DEVICE_ATTITUDE_STATUS(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA {
+                q: [1.2, 0.0, 0.0, 0.0],
+                ..Default::default()
+            });
+        let Some(Incoming::Gimbal {
+            quaternion_norm, ..
+        }) = decode(&skewed, 154, 1, 191)
+        else {
             panic!("not a gimbal attitude");
         };
         assert!(quaternion_norm.is_some_and(|n| (n - 1.2).abs() < 1e-6));

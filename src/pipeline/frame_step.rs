@@ -7,7 +7,6 @@
 use super::capture::Delivered;
 use super::detector::Detector;
 use super::health::announce;
-use crate::logging::LogThrottle;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
 use super::recording::FrameRecording;
@@ -22,6 +21,7 @@ use crate::digest::{Digest, DigestSettings};
 use crate::frame::{geo_fix, ClockJump, FrameClock, GeoFix, GeoSettings, InputBuilder};
 use crate::geo::Geolocator;
 use crate::health::{Condition, ConditionReport, Level, Notice};
+use crate::logging::LogThrottle;
 use crate::mavlink::Outputs;
 use crate::report::TrackReport;
 use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};

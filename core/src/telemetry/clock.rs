@@ -113,7 +113,12 @@ impl RebootDetector {
             return StampVerdict::Current;
         };
         let moved_us = at.0.saturating_sub(latest_at.0);
-        if t.0 > latest.0.saturating_add(moved_us).saturating_add(REBOOT_JUMP_US) {
+        if t.0
+            > latest
+                .0
+                .saturating_add(moved_us)
+                .saturating_add(REBOOT_JUMP_US)
+        {
             // Ahead of the latest by more than the time that passed since it arrived.
             self.stale_stamps += 1;
             return StampVerdict::Stale;
@@ -136,7 +141,9 @@ impl RebootDetector {
         }
         // Otherwise only if the stamps hold one new timeline alone, long enough.
         let (first, count) = match self.behind {
-            Some((first, prev, n)) if t.0 >= prev.0 && t.0 <= prev.0.saturating_add(REBOOT_JUMP_US) => {
+            Some((first, prev, n))
+                if t.0 >= prev.0 && t.0 <= prev.0.saturating_add(REBOOT_JUMP_US) =>
+            {
                 (first, n + 1)
             }
             _ => (t, 1),

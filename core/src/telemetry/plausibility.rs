@@ -317,7 +317,11 @@ mod tests {
             let t = k as f64 / 50.0;
             let mut f = fix(t, 15.0 * t, 42.0);
             f.velocity_ned_mps = Some(Vector3::new(15.0, 0.0, 0.0));
-            assert_eq!(g.check_position(&f, Some(&HOME), None), Ok(()), "sample {k}");
+            assert_eq!(
+                g.check_position(&f, Some(&HOME), None),
+                Ok(()),
+                "sample {k}"
+            );
         }
         assert_eq!(g.refused(), 0);
     }
@@ -414,10 +418,17 @@ mod tests {
         let reasons = [
             Implausible::BelowWater { height_m: -1002.0 },
             Implausible::AboveHome { height_m: 19_999.0 },
-            Implausible::FarFromHome { distance_m: 8_374_000.0 },
+            Implausible::FarFromHome {
+                distance_m: 8_374_000.0,
+            },
             Implausible::Speed { speed_mps: 999.0 },
-            Implausible::Acceleration { accel_mps2: 99_999.0 },
-            Implausible::Jump { distance_m: 8_374_000.0, dt_s: 99.9 },
+            Implausible::Acceleration {
+                accel_mps2: 99_999.0,
+            },
+            Implausible::Jump {
+                distance_m: 8_374_000.0,
+                dt_s: 99.9,
+            },
             Implausible::QuaternionNorm { norm: 1.2 },
         ];
         for r in reasons {

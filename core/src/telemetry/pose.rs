@@ -183,7 +183,11 @@ impl<T: Interpolate> Series<T> {
         // Out-of-order or repeated stamps (a message relayed twice) would break the bracketing.
         // A stamp far in the past is no reboot by itself (a stray or forged message): only a
         // confirmed reboot empties the history ([`PoseBuffer::clear`]).
-        if self.samples.back().is_some_and(|last| sample.time() <= last.time()) {
+        if self
+            .samples
+            .back()
+            .is_some_and(|last| sample.time() <= last.time())
+        {
             return;
         }
         if self.samples.len() == STREAM_CAPACITY {

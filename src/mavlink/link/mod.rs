@@ -744,7 +744,9 @@ impl LinkTask {
         // 4. A command beyond its sender's budget is dropped unanswered (and counted).
         let id = raw.message_id();
         if (id == dialect::COMMAND_LONG_DATA::ID || id == dialect::COMMAND_INT_DATA::ID)
-            && !self.commands.admit((system_id, component_id), Instant::now())
+            && !self
+                .commands
+                .admit((system_id, component_id), Instant::now())
         {
             self.stats.commands_over_budget += 1;
             if let Some(suppressed) = self.throttle_commands.allow() {
