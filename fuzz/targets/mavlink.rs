@@ -206,15 +206,23 @@ fn check_decoders(msg: &MavMessage, from_component: u8, time_us: u64) {
         let kind_ok = match incoming {
             Incoming::AutopilotHeartbeat => name == "HEARTBEAT",
             Incoming::Position(p) => {
-                assert!(geodetic_ok(&p.position), "{name}: {p:?}");
+                assert!(geodetic_ok(&p.sample.position), "{name}: {p:?}");
+                assert!(
+                    p.velocity_ned_mps.is_none_or(|v| v.iter().all(|c| c.is_finite())),
+                    "{name}: {p:?}"
+                );
                 name == "GLOBAL_POSITION_INT"
             }
             Incoming::Attitude(a) => {
                 assert!(unit_quaternion_ok(&a.attitude), "{name}: {a:?}");
                 name == "ATTITUDE"
             }
-            Incoming::Gimbal(g) => {
+            Incoming::Gimbal {
+                sample: g,
+                quaternion_norm,
+            } => {
                 assert!(unit_quaternion_ok(&g.attitude), "{name}: {g:?}");
+                assert!(quaternion_norm.is_none_or(f64::is_finite), "{name}: {g:?}");
                 matches!(name, "GIMBAL_DEVICE_ATTITUDE_STATUS" | "MOUNT_ORIENTATION")
             }
             Incoming::Home(h) => {
