@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{mgmot, mgmot_run, repo_file, run_config, TestCommand, TestDir};
+use common::{example_config_here, mgmot, mgmot_run, repo_file, run_config, TestCommand, TestDir};
 use std::ffi::CString;
 use std::os::fd::{FromRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
@@ -106,7 +106,7 @@ fn every_command_ends_quietly_when_stdout_is_closed() {
     let (ann, det) = write_dataset(tmp.path());
     let gt = write_mot(tmp.path(), "gt.txt");
     let pred = write_mot(tmp.path(), "pred.txt");
-    let example = repo_file("systemd/mgmot.example.toml");
+    let example = example_config_here(&tmp);
     let geo = tmp.join("geo.csv");
     let model = repo_file("models/mgmot-det-fp32.onnx");
     let images = repo_file("tests/fixtures/detect");

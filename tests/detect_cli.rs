@@ -214,3 +214,55 @@ fn tract_and_onnxruntime_agree_on_the_shipped_models() {
         );
     }
 }
+
+/// Issue 39 item 6: with the service's `RUST_LOG=info`, ONNX Runtime wrote some 600 INFO lines
+/// at every start. Its log goes through `tracing`, from WARN up.
+#[test]
+fn flight_day_6_onnxruntime_says_nothing_below_warn() {
+    let lib = onnxruntime_library()
+        .unwrap_or_else(|why| missing_tool("ONNX Runtime's log at start", &why));
+    let out = mgmot()
+        .args(["detect", "--model"])
+        .arg(repo_file(INT8))
+        .arg(fixtures())
+        .args(["--backend", "onnxruntime", "--ort-lib"])
+        .arg(&lib)
+        .env("RUST_LOG", "info")
+        .output();
+    let stderr = strip_ansi(&String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    // ort's own forwarding put ONNX Runtime's lines in an `ort{...}` span, target
+    // `ort::logging`; mgmot's puts them under target `ort`.
+    let from_ort = |l: &&str| l.contains("ort{") || l.contains(" ort:") || l.contains("ort::");
+    let info: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains(" INFO ") || l.contains(" DEBUG ") || l.contains(" TRACE "))
+        .filter(from_ort)
+        .collect();
+    assert!(
+        info.is_empty(),
+        "{} lines of ONNX Runtime below WARN, the first: {:?}",
+        info.len(),
+        info.first()
+    );
+    // mgmot's own INFO lines still come.
+    assert!(stderr.contains("loaded ONNX Runtime"), "{stderr}");
+}
+
+/// `text` without ANSI colour sequences (`ESC [ ... m`).
+fn strip_ansi(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.chars();
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            for c in chars.by_ref() {
+                if c.is_ascii_alphabetic() {
+                    break;
+                }
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}

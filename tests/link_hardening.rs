@@ -5,8 +5,8 @@
 
 use mavlink_core::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 use mgmot::mavlink::dialect::{
-    MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, GLOBAL_POSITION_INT_DATA,
-    HEARTBEAT_DATA, HOME_POSITION_DATA, STATUSTEXT_DATA, TIMESYNC_DATA,
+    MavAutopilot, MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, HOME_POSITION_DATA, STATUSTEXT_DATA, TIMESYNC_DATA,
 };
 use mgmot::mavlink::link::frames::FrameParser;
 use mgmot::mavlink::{parse_raw, Link, LinkEvent, LinkSender, LinkSettings, SigningSettings};
@@ -15,6 +15,9 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 const AUTOPILOT: (u8, u8) = (1, 1);
+/// MOUNT_ORIENTATION's id (the message is deprecated in common.xml).
+#[allow(deprecated)]
+const MOUNT_ORIENTATION: u32 = mgmot::mavlink::dialect::MOUNT_ORIENTATION_DATA::ID;
 const GCS: (u8, u8) = (255, 190);
 const KEY: [u8; 32] = [0x5a; 32];
 
@@ -641,4 +644,197 @@ async fn a_command_flood_is_answered_within_the_senders_budget() {
         stats.commands_over_budget as f64 >= sent as f64 - budget,
         "{stats:?}"
     );
+}
+
+/// Issue 39 item 6: ArduPilot forwards mgmot's TIMESYNC requests to its other links, and the
+/// ground stations there answer (307 answers in 6 min on SITL); they also send requests of their
+/// own. None of them is used, and none is worth a warning: they are counted, logged at debug.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn flight_day_6_timesync_from_a_ground_station_is_ignored_quietly() {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.timesync_hz = 5.0;
+    let (link, _sender, mut events) = start(s);
+    let router = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    router.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    for k in 0..5i64 {
+        let request = MavMessage::TIMESYNC(TIMESYNC_DATA {
+            tc1: 0,
+            ts1: 1_000_000 + k,
+            ..Default::default()
+        });
+        let answer = MavMessage::TIMESYNC(TIMESYNC_DATA {
+            tc1: 123_000_000,
+            ts1: 2_000_000 + k,
+            target_system: 1,
+            target_component: 191,
+        });
+        router.send(addr, &frame(GCS, &request, None));
+        router.send(addr, &frame(GCS, &answer, None));
+    }
+    let got = events_for(&mut events, Duration::from_millis(300)).await;
+    let stats = link.close().await;
+    assert!(
+        !got.iter().any(|e| matches!(e, LinkEvent::TimeSync { .. })),
+        "a ground station's TIMESYNC was used"
+    );
+    assert_eq!(
+        stats.telemetry_from_others, 0,
+        "a ground station's TIMESYNC counted (and warned) as spoofed telemetry: {stats:?}"
+    );
+    assert_eq!(stats.timesync_from_others, 10, "{stats:?}");
+}
+
+/// HEARTBEAT of an autopilot of type `autopilot`.
+fn heartbeat_of(autopilot: MavAutopilot) -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        autopilot,
+        ..Default::default()
+    })
+}
+
+/// Plays an autopilot of type `autopilot` for `d` (pose first, its HEARTBEAT only after
+/// 600 ms, then at 1 Hz), answering every SET_MESSAGE_INTERVAL (MOUNT_ORIENTATION refused, as
+/// ArduPilot does); returns the message ids mgmot asked for.
+async fn stream_requests_of(autopilot_type: MavAutopilot, d: Duration) -> Vec<u32> {
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.streams = vec![
+        (GLOBAL_POSITION_INT_DATA::ID, 10.0),
+        (MOUNT_ORIENTATION, 10.0),
+    ];
+    let (link, _sender, _events) = start(s);
+    let autopilot = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let started = Instant::now();
+    let mut asked = Vec::new();
+    let mut last_heartbeat: Option<Instant> = None;
+    while started.elapsed() < d {
+        if started.elapsed() >= Duration::from_millis(600)
+            && last_heartbeat.is_none_or(|t| t.elapsed() >= Duration::from_secs(1))
+        {
+            autopilot.send(addr, &frame(AUTOPILOT, &heartbeat_of(autopilot_type), None));
+            last_heartbeat = Some(Instant::now());
+        }
+        autopilot.send(addr, &frame(AUTOPILOT, &position(500_000_000), None));
+        for (_, m, _, _) in autopilot.receive_for(Duration::from_millis(50)) {
+            if let Some(MavMessage::COMMAND_LONG(c)) = m {
+                if c.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
+                    let id = c.param1 as u32;
+                    asked.push(id);
+                    let result = if id == MOUNT_ORIENTATION {
+                        MavResult::MAV_RESULT_DENIED
+                    } else {
+                        MavResult::MAV_RESULT_ACCEPTED
+                    };
+                    let ack = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                        result,
+                        target_system: 1,
+                        target_component: 191,
+                        ..Default::default()
+                    });
+                    autopilot.send(addr, &frame(AUTOPILOT, &ack, None));
+                }
+            }
+        }
+    }
+    link.close().await;
+    asked
+}
+
+/// Issue 39 item 6: ArduPilot refuses MOUNT_ORIENTATION, and tells the operator's ground
+/// station "No ap_message for mavlink id (265)" each time it is asked. Its HEARTBEAT says it
+/// is ArduPilot: it is not asked (even when pose arrives before the first HEARTBEAT). Another
+/// autopilot still is.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn flight_day_6_mount_orientation_is_not_asked_of_ardupilot() {
+    let asked = stream_requests_of(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        Duration::from_millis(2500),
+    )
+    .await;
+    assert!(
+        asked.contains(&GLOBAL_POSITION_INT_DATA::ID),
+        "the pose stream was not asked for: {asked:?}"
+    );
+    assert!(
+        !asked.contains(&MOUNT_ORIENTATION),
+        "ArduPilot was asked for MOUNT_ORIENTATION: {asked:?}"
+    );
+    let asked =
+        stream_requests_of(MavAutopilot::MAV_AUTOPILOT_PX4, Duration::from_millis(2500)).await;
+    assert!(
+        asked.contains(&MOUNT_ORIENTATION),
+        "another autopilot was not asked for MOUNT_ORIENTATION: {asked:?}"
+    );
+}
+
+/// Issue 39 item 8: a notice longer than STATUSTEXT's 50 bytes reaches the ground station
+/// whole ("recording stopped: Input/output error (os e" was all it saw): MAVLink 2's chunked
+/// STATUSTEXT, reassembled here as QGroundControl and MAVProxy do.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn flight_day_8_long_notices_reach_the_ground_station_whole() {
+    use mgmot::health::{Level, Notice};
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let (link, _inbox, outputs) =
+        mgmot::mavlink::bridge::start(settings(format!("udpin:127.0.0.1:{port}")), false).unwrap();
+    let gcs = Peer::new();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    gcs.send(addr, &frame(AUTOPILOT, &heartbeat(), None));
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let texts = [
+        "mgmot: recording stopped: Input/output error (os error 5)".to_string(),
+        "short".to_string(),
+        "x".repeat(100),
+        "é".repeat(40),
+    ];
+    for t in &texts {
+        outputs.notice(&Notice::new(Level::Warning, t.clone()));
+    }
+    let got = gcs.receive_for(Duration::from_millis(400));
+    link.close().await;
+    let chunks: Vec<STATUSTEXT_DATA> = got
+        .into_iter()
+        .filter_map(|(_, m, _, _)| match m {
+            Some(MavMessage::STATUSTEXT(s)) => Some(s),
+            _ => None,
+        })
+        .collect();
+    // Reassembly as the STATUSTEXT spec says: id 0 stands alone; chunks of one id in
+    // chunk_seq order, the last one holding a NUL.
+    let mut whole: Vec<String> = Vec::new();
+    let mut pending: Vec<u8> = Vec::new();
+    let mut pending_id = None;
+    for c in &chunks {
+        let bytes: [u8; 50] = c.text.into();
+        let end = bytes.iter().position(|&b| b == 0).unwrap_or(50);
+        if c.id == 0 {
+            whole.push(String::from_utf8(bytes[..end].to_vec()).unwrap());
+            continue;
+        }
+        if pending_id != Some(c.id) {
+            assert!(pending.is_empty(), "chunks of two texts interleave");
+            pending_id = Some(c.id);
+            assert_eq!(c.chunk_seq, 0, "a text starts with chunk 0");
+        }
+        pending.extend_from_slice(&bytes[..end]);
+        if end < 50 {
+            whole.push(String::from_utf8(std::mem::take(&mut pending)).unwrap());
+            pending_id = None;
+        }
+    }
+    assert!(pending.is_empty(), "a text without its last chunk");
+    assert_eq!(whole, texts);
+    let mut ids: Vec<u16> = chunks.iter().map(|c| c.id).filter(|&i| i != 0).collect();
+    ids.dedup();
+    assert_eq!(ids.len(), 3, "one id per chunked text: {ids:?}");
+    ids.sort_unstable();
+    ids.dedup();
+    assert_eq!(ids.len(), 3, "two texts share an id: {ids:?}");
 }

@@ -2,11 +2,12 @@
 
 mod common;
 
-use common::{mgmot, repo_file, TestDir};
+use common::{example_config_here, example_config_with_detector, mgmot, repo_file, TestDir};
 
 #[test]
 fn example_config_is_ok() {
-    let example = repo_file("systemd/mgmot.example.toml");
+    let dir = TestDir::new();
+    let example = example_config_here(&dir);
     let out = mgmot().arg("check-config").arg(&example).output();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -67,6 +68,103 @@ detections = "d.json"
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("typo.toml") && stderr.contains("rate"),
+        "{stderr}"
+    );
+}
+
+/// Issue 39 item 12: `check-config` said ok although the model file did not exist; `mgmot
+/// run` then failed at start.
+#[test]
+fn flight_day_12_check_config_fails_on_a_missing_model() {
+    let dir = TestDir::new();
+    let missing = dir.join("models/gone.onnx");
+    let config = example_config_with_detector(&dir, &missing, "tract", None);
+    let out = mgmot().arg("check-config").arg(&config).output();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "check-config passed: {}{stderr}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(
+        stderr.contains(&missing.display().to_string()) && stderr.contains("`detector.model`"),
+        "{stderr}"
+    );
+    // A directory where the model should be is no model either.
+    std::fs::create_dir_all(&missing).unwrap();
+    let out = mgmot().arg("check-config").arg(&config).output();
+    assert!(!out.status.success());
+}
+
+/// Issue 39 item 12: the ONNX Runtime library of `backend = "onnxruntime"`, configured or
+/// from `ORT_DYLIB_PATH`, must exist for `check-config` to say ok.
+#[test]
+fn flight_day_12_check_config_fails_on_a_missing_onnxruntime_library() {
+    let dir = TestDir::new();
+    let model = repo_file("models/mgmot-det-int8.onnx");
+    let missing = dir.join("lib/libonnxruntime.so");
+    let config = example_config_with_detector(&dir, &model, "onnxruntime", Some(&missing));
+    let out = mgmot()
+        .arg("check-config")
+        .arg(&config)
+        .env_remove("ORT_DYLIB_PATH")
+        .output();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "check-config passed: {stderr}");
+    assert!(
+        stderr.contains(&missing.display().to_string())
+            && stderr.contains("`detector.ort_library`"),
+        "{stderr}"
+    );
+    // Not configured: ORT_DYLIB_PATH names it, or nothing does.
+    let config = example_config_with_detector(&dir, &model, "onnxruntime", None);
+    let out = mgmot()
+        .arg("check-config")
+        .arg(&config)
+        .env("ORT_DYLIB_PATH", &missing)
+        .output();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "check-config passed: {stderr}");
+    assert!(
+        stderr.contains(&missing.display().to_string()) && stderr.contains("ORT_DYLIB_PATH"),
+        "{stderr}"
+    );
+    let out = mgmot()
+        .arg("check-config")
+        .arg(&config)
+        .env_remove("ORT_DYLIB_PATH")
+        .output();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "check-config passed: {stderr}");
+    assert!(stderr.contains("ORT_DYLIB_PATH"), "{stderr}");
+    // tract needs no library.
+    let config = example_config_with_detector(&dir, &model, "tract", Some(&missing));
+    let out = mgmot().arg("check-config").arg(&config).output();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Issue 39 item 12: `mgmot run`'s start-up error was printed three times over (each error
+/// of the chain repeated its cause); it is said once.
+#[test]
+fn flight_day_12_run_says_its_start_up_error_once() {
+    let dir = TestDir::new();
+    let missing = dir.join("gone.onnx");
+    let config = example_config_with_detector(&dir, &missing, "tract", None);
+    let out = mgmot()
+        .args(["run", "--config"])
+        .arg(&config)
+        .output_within(std::time::Duration::from_secs(60), "mgmot run");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    let path = missing.display().to_string();
+    assert_eq!(stderr.matches(&path).count(), 1, "{stderr}");
+    assert_eq!(
+        stderr.matches("No such file or directory").count(),
+        1,
         "{stderr}"
     );
 }

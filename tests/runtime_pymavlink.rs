@@ -39,12 +39,13 @@ fn pymavlink_decodes_mgmot_messages() {
         component_id: 191,
         sequence: 0,
     };
+    let long = "mgmot: recording stopped: Input/output error (os error 5)";
+    let id = std::num::NonZeroU16::new(9).unwrap();
     let mut bytes = Vec::new();
-    for m in [
-        heartbeat(),
-        mgmot_track(&report),
-        statustext(Severity::Warning, "mgmot: camera lost"),
-    ] {
+    let mut messages = vec![heartbeat(), mgmot_track(&report)];
+    messages.extend(statustext(Severity::Warning, "mgmot: camera lost", id));
+    messages.extend(statustext(Severity::Warning, long, id));
+    for m in messages {
         mavlink_core::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, &m).unwrap();
     }
     require_python("pymavlink_decodes_mgmot_messages", &["pymavlink"]);
@@ -68,7 +69,16 @@ fn pymavlink_decodes_mgmot_messages() {
         .iter()
         .map(|m| m["mavpackettype"].as_str().unwrap())
         .collect();
-    assert_eq!(types, ["HEARTBEAT", "MGMOT_TRACK", "STATUSTEXT"]);
+    assert_eq!(
+        types,
+        [
+            "HEARTBEAT",
+            "MGMOT_TRACK",
+            "STATUSTEXT",
+            "STATUSTEXT",
+            "STATUSTEXT"
+        ]
+    );
     let t = &msgs[1];
     assert_eq!(t["track_id"], 70_000);
     assert_eq!(t["merged_from_id"], 42);
@@ -83,4 +93,20 @@ fn pymavlink_decodes_mgmot_messages() {
     assert_eq!(t["_srcComponent"], 191);
     assert_eq!(msgs[0]["type"], 18); // MAV_TYPE_ONBOARD_CONTROLLER
     assert_eq!(msgs[2]["text"], "mgmot: camera lost");
+    assert_eq!(msgs[2]["id"], 0);
+    // The long text in two chunks of one id, as a ground station reassembles them.
+    assert_eq!(
+        (&msgs[3]["id"], &msgs[3]["chunk_seq"]),
+        (&9.into(), &0.into())
+    );
+    assert_eq!(
+        (&msgs[4]["id"], &msgs[4]["chunk_seq"]),
+        (&9.into(), &1.into())
+    );
+    let joined = format!(
+        "{}{}",
+        msgs[3]["text"].as_str().unwrap(),
+        msgs[4]["text"].as_str().unwrap()
+    );
+    assert_eq!(joined, long);
 }

@@ -159,10 +159,12 @@ fn install_upgrade_uninstall_and_purge_into_a_destdir() {
     );
     assert!(!config.contains("\nort_library = "), "{config}");
     assert_eq!(mode(&config_path), 0o640, "the signing key is in it");
-    let check = TestCommand::new(&bin)
-        .arg("check-config")
-        .arg(&config_path)
-        .ok();
+    // check-config requires the model to exist: the installed paths, under DESTDIR.
+    let here = dir.write(
+        "installed-here.toml",
+        config.replace("\"/opt/mgmot/", &format!("\"{}/opt/mgmot/", root.display())),
+    );
+    let check = TestCommand::new(&bin).arg("check-config").arg(&here).ok();
     assert!(String::from_utf8_lossy(&check.stdout).contains(": ok"));
 
     // An upgrade keeps the configuration the user edited.

@@ -54,7 +54,7 @@ pub enum Level {
 pub struct Notice {
     /// Info when a condition recovers, Warning when it breaks.
     pub level: Level,
-    /// The text (the MAVLink edge keeps STATUSTEXT's first 50 bytes).
+    /// The text (the MAVLink edge sends more than 50 bytes as chunked STATUSTEXT, up to 200).
     pub text: String,
 }
 

@@ -3,7 +3,7 @@
 use super::stdout::Stdout;
 use anyhow::Context;
 use clap::Args as ClapArgs;
-use mgmot::config::Config;
+use mgmot::config::{Config, ConfigError, Problems};
 use mgmot::formats::input::{self, InputKind};
 use std::io::Write;
 use std::path::PathBuf;
@@ -15,12 +15,23 @@ pub struct Args {
     file: PathBuf,
 }
 
-/// Runs the subcommand: prints a summary, or fails with every problem found.
+/// Runs the subcommand: prints a summary, or fails with every problem found (in the values,
+/// then in the files the detector needs).
 pub fn run(args: Args) -> anyhow::Result<()> {
     // `Config::load` reads whatever the path names; refuse devices, FIFOs and huge files
     // first (a FIFO without a writer would block, /dev/zero would fill memory).
     input::open(&args.file, InputKind::Config).with_context(|| args.file.display().to_string())?;
     let (config, settings) = Config::load(&args.file)?;
+    // The files the run needs at start (the model, ONNX Runtime): `mgmot run` would fail on them.
+    let mut problems = Problems::default();
+    settings.detector.check_files(&mut problems);
+    if !problems.is_empty() {
+        return Err(ConfigError::Invalid {
+            path: args.file.clone(),
+            problems: problems.into_vec(),
+        }
+        .into());
+    }
     let mut out = Stdout::lock();
     writeln!(out, "{}: ok", args.file.display())?;
     writeln!(

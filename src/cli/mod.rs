@@ -74,8 +74,23 @@ pub fn main() -> ExitCode {
         // The reader of stdout went away (`mgmot ... | head`): nothing to report.
         Err(e) if stdout::is_closed(&e) => ExitCode::from(stdout::CLOSED_EXIT_CODE),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", said_once(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes in one line, each said once: an error whose message already
+/// includes its cause's (`#[error("model: {0}")]` over a `#[source]`) does not repeat it,
+/// as `{:#}` would ("cannot read: No such file: No such file").
+fn said_once(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let cause = cause.to_string();
+        if !line.contains(&cause) {
+            line += ": ";
+            line += &cause;
+        }
+    }
+    line
 }

@@ -3,7 +3,7 @@
 use super::problems::Problems;
 use crate::detect::{BackendConfig, BackendKind, TilingConfig};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Detectors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -108,6 +108,65 @@ pub enum DetectorSettings {
         /// The image id of frame index 0.
         first_image_id: u64,
     },
+}
+
+impl DetectorSettings {
+    /// The files the detector needs at start, looked at on this machine (what
+    /// `mgmot check-config` adds to [`DetectorConfig::validate`], which looks at values only):
+    /// the ONNX model must be a readable file and, on the onnxruntime backend, the ONNX
+    /// Runtime library (`detector.ort_library`, else `ORT_DYLIB_PATH`) must exist. Nothing is
+    /// loaded. Problems are pushed onto `p` under the keys that name the files.
+    pub fn check_files(&self, p: &mut Problems) {
+        let DetectorSettings::Onnx(onnx) = self else {
+            return;
+        };
+        if let Err(why) = readable_file(&onnx.model_path) {
+            p.push(
+                "detector.model",
+                format!("{}: {why}", onnx.model_path.display()),
+            );
+        }
+        if onnx.backend.kind != BackendKind::OnnxRuntime {
+            return;
+        }
+        match (
+            &onnx.backend.ort_dylib_path,
+            onnx.backend.resolved_ort_dylib_path(),
+        ) {
+            (_, None) => p.push(
+                "detector.ort_library",
+                format!(
+                    "the onnxruntime backend needs the ONNX Runtime library: set this key or {}",
+                    crate::detect::ORT_DYLIB_ENV
+                ),
+            ),
+            (configured, Some(lib)) => {
+                if let Err(why) = readable_file(&lib) {
+                    let from = if configured.is_some() {
+                        String::new()
+                    } else {
+                        format!(" (from {})", crate::detect::ORT_DYLIB_ENV)
+                    };
+                    p.push(
+                        "detector.ort_library",
+                        format!("{}{from}: {why}", lib.display()),
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// `Ok` when `path` is a file this process can open for reading; otherwise why not.
+fn readable_file(path: &Path) -> Result<(), String> {
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("no such file".into()),
+        Err(e) => Err(e.to_string()),
+        Ok(m) if !m.is_file() => Err("not a regular file".into()),
+        Ok(_) => std::fs::File::open(path)
+            .map(drop)
+            .map_err(|e| format!("cannot be read: {e}")),
+    }
 }
 
 impl DetectorConfig {

@@ -20,7 +20,7 @@ use std::ffi::CStr;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use serde::{Deserialize, Serialize};
 
@@ -152,10 +152,43 @@ pub fn init_backend(
     if let Some(env) = ENVIRONMENT.get() {
         return Ok(env);
     }
-    let env = ort::init().with_name("mgmot").build().map_err(|e| {
-        DetectError::InvalidConfig(format!("cannot create the ort environment: {e}"))
-    })?;
+    let env = ort::init()
+        .with_name("mgmot")
+        .with_logger(Arc::new(forward_ort_log))
+        .build()
+        .map_err(|e| {
+            DetectError::InvalidConfig(format!("cannot create the ort environment: {e}"))
+        })?;
+    if config.kind == BackendKind::OnnxRuntime {
+        // ONNX Runtime starts at VERBOSE (ort asks for it) and says some 600 things at INFO
+        // while it builds a session; from here on it only tells of warnings. (ort-tract has no
+        // log level to set, and logs nothing.)
+        env.set_log_level(ort::logging::LogLevel::Warning);
+    }
     Ok(ENVIRONMENT.get_or_init(|| env))
+}
+
+/// ONNX Runtime's log, as `tracing` events of target `ort`: warnings and errors as such; what
+/// it says at INFO and VERBOSE (only before [`init_backend`] sets its level to WARNING) at
+/// DEBUG and TRACE, so that it never floods a run's log.
+fn forward_ort_log(
+    level: ort::logging::LogLevel,
+    category: &str,
+    _id: &str,
+    code_location: &str,
+    message: &str,
+) {
+    use ort::logging::LogLevel;
+    match level {
+        LogLevel::Verbose => {
+            tracing::trace!(target: "ort", category, code_location, "{message}")
+        }
+        LogLevel::Info => tracing::debug!(target: "ort", category, code_location, "{message}"),
+        LogLevel::Warning => tracing::warn!(target: "ort", category, code_location, "{message}"),
+        LogLevel::Error | LogLevel::Fatal => {
+            tracing::error!(target: "ort", category, code_location, "{message}")
+        }
+    }
 }
 
 /// Loads ONNX Runtime from `path` and returns a copy of its C API table for

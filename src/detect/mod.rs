@@ -30,7 +30,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-pub use backend::{BackendConfig, BackendKind};
+pub use backend::{BackendConfig, BackendKind, ORT_DYLIB_ENV};
 pub use detector::{DetectTimings, Detector, DetectorConfig, DEFAULT_NMS_IOU};
 pub use model::{ModelInfo, OutputLayout};
 pub use tiling::TilingConfig;

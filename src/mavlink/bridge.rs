@@ -23,7 +23,8 @@ use crate::report::{TrackReport, TrackingMode, TrackingStatus};
 use crate::telemetry::{
     AttitudeSample, AutopilotTimeUs, CompanionTimeUs, GimbalSample, PositionFix,
 };
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::num::NonZeroU16;
+use std::sync::atomic::{AtomicU16, AtomicU64, Ordering};
 use std::sync::Arc;
 use tokio::sync::mpsc;
 
@@ -115,6 +116,7 @@ pub fn start(
         sender,
         frame_size: Arc::new(FrameSize::default()),
         target_absolute,
+        statustext_id: Arc::new(AtomicU16::new(0)),
     };
     let inbox = Inbox {
         events,
@@ -261,6 +263,9 @@ pub struct Outputs {
     sender: LinkSender,
     frame_size: Arc<FrameSize>,
     target_absolute: bool,
+    /// The last id of a chunked STATUSTEXT: ground stations join chunks by id, so each long
+    /// notice needs one of its own (shared by the clones).
+    statustext_id: Arc<AtomicU16>,
 }
 
 impl Outputs {
@@ -269,14 +274,29 @@ impl Outputs {
         self.sender.send(heartbeat());
     }
 
-    /// A notice for the operator, as STATUSTEXT (its first 50 bytes).
+    /// A notice for the operator, as STATUSTEXT (in chunks when longer than 50 bytes, see
+    /// [`statustext`]).
     pub fn notice(&self, notice: &Notice) {
         let severity = match notice.level {
             Level::Info => Severity::Info,
             Level::Notice => Severity::Notice,
             Level::Warning => Severity::Warning,
         };
-        self.sender.send(statustext(severity, &notice.text));
+        for m in statustext(severity, &notice.text, self.next_statustext_id()) {
+            self.sender.send(m);
+        }
+    }
+
+    /// 1, 2, ... 65535, 1, ...: never 0, which means "not chunked".
+    fn next_statustext_id(&self) -> NonZeroU16 {
+        let mut id = NonZeroU16::MIN;
+        let _ = self
+            .statustext_id
+            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |last| {
+                id = NonZeroU16::new(last.wrapping_add(1)).unwrap_or(NonZeroU16::MIN);
+                Some(id.get())
+            });
+        id
     }
 
     /// A track report: MGMOT_TRACK (then `on_sent` is called with the time it reached the

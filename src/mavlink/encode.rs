@@ -4,10 +4,11 @@ use super::dialect::*;
 use crate::report::{TrackReport, TrackingMode, TrackingStatus};
 use crate::telemetry::CompanionTimeUs;
 use mavlink_core::MessageData;
+use std::num::NonZeroU16;
 
 // MOUNT_ORIENTATION is deprecated in common.xml; some gimbal bridges still send it. ArduPilot
-// (upstream 90700977c5) refuses it (DENIED: "No ap_message for mavlink id (265)"), and a
-// refused stream is not asked for again until the autopilot reboots.
+// (upstream 90700977c5) refuses it (DENIED: "No ap_message for mavlink id (265)"), so it is
+// not asked of ArduPilot at all (`link::streams::not_sent_by`).
 #[allow(deprecated)]
 /// Telemetry streams requested from the autopilot with MAV_CMD_SET_MESSAGE_INTERVAL, and their
 /// rates (Hz); `None`: the pose streams, at `mavlink.stream_rate_hz` (50 Hz by default: fast
@@ -46,21 +47,55 @@ pub fn heartbeat() -> MavMessage {
     })
 }
 
-/// STATUSTEXT (text longer than the message's 50 characters is cut at a char boundary).
-pub fn statustext(severity: Severity, text: &str) -> MavMessage {
-    let mut end = text.len().min(50);
+/// Bytes of text one STATUSTEXT carries.
+pub const STATUSTEXT_CHUNK_BYTES: usize = 50;
+/// The longest text sent, in bytes (longer ones are cut at a char boundary): four chunks hold
+/// every notice mgmot makes, an OS error's text included, without letting one notice take the
+/// link's bandwidth.
+pub const STATUSTEXT_MAX_BYTES: usize = 4 * STATUSTEXT_CHUNK_BYTES;
+
+/// STATUSTEXT for `text`. Up to 50 bytes: one message, `id` 0 (shown at once). Longer: MAVLink
+/// 2's chunked STATUSTEXT, which QGroundControl and MAVProxy reassemble: 50-byte chunks sharing
+/// the non-zero `id`, `chunk_seq` counting from 0, the last one shorter than 50 bytes (NUL
+/// after the text; an empty chunk follows a text that ends on a chunk boundary). A ground
+/// station that does not reassemble shows each chunk as a line. Text beyond
+/// [`STATUSTEXT_MAX_BYTES`] is cut at a char boundary. `id` must differ from the previous
+/// chunked texts' (a counter, see `Outputs::notice`).
+pub fn statustext(severity: Severity, text: &str, id: NonZeroU16) -> Vec<MavMessage> {
+    let severity = match severity {
+        Severity::Warning => MavSeverity::MAV_SEVERITY_WARNING,
+        Severity::Info => MavSeverity::MAV_SEVERITY_INFO,
+        Severity::Notice => MavSeverity::MAV_SEVERITY_NOTICE,
+    };
+    let message = |id: u16, chunk_seq: u8, chunk: &[u8]| {
+        let mut bytes = [0u8; STATUSTEXT_CHUNK_BYTES];
+        bytes[..chunk.len()].copy_from_slice(chunk);
+        MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            severity,
+            text: bytes.into(),
+            id,
+            chunk_seq,
+        })
+    };
+    let mut end = text.len().min(STATUSTEXT_MAX_BYTES);
     while !text.is_char_boundary(end) {
         end -= 1;
     }
-    MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-        severity: match severity {
-            Severity::Warning => MavSeverity::MAV_SEVERITY_WARNING,
-            Severity::Info => MavSeverity::MAV_SEVERITY_INFO,
-            Severity::Notice => MavSeverity::MAV_SEVERITY_NOTICE,
-        },
-        text: text[..end].into(),
-        ..Default::default()
-    })
+    let bytes = &text.as_bytes()[..end];
+    if bytes.len() <= STATUSTEXT_CHUNK_BYTES {
+        return vec![message(0, 0, bytes)];
+    }
+    // Chunks split bytes, not characters: a receiver joins bytes, and only the last chunk may
+    // be short.
+    let mut chunks: Vec<&[u8]> = bytes.chunks(STATUSTEXT_CHUNK_BYTES).collect();
+    if bytes.len() % STATUSTEXT_CHUNK_BYTES == 0 {
+        chunks.push(&[]);
+    }
+    chunks
+        .into_iter()
+        .zip(0u8..)
+        .map(|(chunk, seq)| message(id.get(), seq, chunk))
+        .collect()
 }
 
 /// MAV_CMD_SET_MESSAGE_INTERVAL for message `message_id` at `rate_hz` to the autopilot.
@@ -661,13 +696,65 @@ mod tests {
         assert_eq!(&c.vendor_name[..6], b"mgmot\0");
     }
 
+    /// The texts of `messages` (STATUSTEXT), with their ids and chunk numbers.
+    fn chunks(messages: &[MavMessage]) -> Vec<(u16, u8, Vec<u8>)> {
+        messages
+            .iter()
+            .map(|m| {
+                let MavMessage::STATUSTEXT(s) = round_trip(m) else {
+                    panic!("{m:?}")
+                };
+                let bytes: [u8; 50] = s.text.into();
+                let end = bytes.iter().position(|&b| b == 0).unwrap_or(50);
+                (s.id, s.chunk_seq, bytes[..end].to_vec())
+            })
+            .collect()
+    }
+
+    const ID: NonZeroU16 = NonZeroU16::MIN.saturating_add(6);
+
     #[test]
-    fn statustext_is_cut_on_a_char_boundary() {
-        let long = "é".repeat(40);
-        let MavMessage::STATUSTEXT(s) = statustext(Severity::Warning, &long) else {
-            panic!()
-        };
-        assert_eq!(s.text.to_str().unwrap().chars().count(), 25);
+    fn statustext_up_to_50_bytes_is_one_message() {
+        for text in ["", "short", &"x".repeat(50)] {
+            let got = chunks(&statustext(Severity::Warning, text, ID));
+            assert_eq!(got, [(0, 0, text.as_bytes().to_vec())]);
+        }
+    }
+
+    #[test]
+    fn statustext_longer_than_50_bytes_goes_in_chunks() {
+        let text = "mgmot: recording stopped: Input/output error (os error 5)";
+        let got = chunks(&statustext(Severity::Warning, text, ID));
+        assert_eq!(
+            got,
+            [
+                (7, 0, text.as_bytes()[..50].to_vec()),
+                (7, 1, text.as_bytes()[50..].to_vec())
+            ]
+        );
+        // Ending on a chunk boundary: an empty chunk says it ended.
+        let text = "y".repeat(100);
+        let got = chunks(&statustext(Severity::Info, &text, ID));
+        let lens: Vec<(u8, usize)> = got.iter().map(|(_, s, b)| (*s, b.len())).collect();
+        assert_eq!(lens, [(0, 50), (1, 50), (2, 0)]);
+        // Multi-byte characters are split between chunks and join again.
+        let text = "é".repeat(40);
+        let joined: Vec<u8> = chunks(&statustext(Severity::Info, &text, ID))
+            .into_iter()
+            .flat_map(|(_, _, b)| b)
+            .collect();
+        assert_eq!(String::from_utf8(joined).unwrap(), text);
+    }
+
+    #[test]
+    fn statustext_is_cut_on_a_char_boundary_at_its_maximum() {
+        let text = "é".repeat(STATUSTEXT_MAX_BYTES);
+        let joined: Vec<u8> = chunks(&statustext(Severity::Warning, &text, ID))
+            .into_iter()
+            .flat_map(|(_, _, b)| b)
+            .collect();
+        let joined = String::from_utf8(joined).unwrap();
+        assert_eq!(joined.chars().count(), STATUSTEXT_MAX_BYTES / 2);
     }
 
     #[test]

@@ -132,6 +132,41 @@ pub fn repo_file(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
 
+/// The shipped example configuration, made true on this machine: the repository's model on
+/// the tract backend instead of the installed model and ONNX Runtime library (which
+/// `check-config` requires to exist). Written into `dir`.
+pub fn example_config_here(dir: &TestDir) -> PathBuf {
+    example_config_with_detector(dir, &repo_file("models/mgmot-det-int8.onnx"), "tract", None)
+}
+
+/// The shipped example with its `[detector]` lines `model`, `backend` and `ort_library` set as
+/// given (`None`: the line left out), written into `dir` as `mgmot.toml`.
+pub fn example_config_with_detector(
+    dir: &TestDir,
+    model: &Path,
+    backend: &str,
+    ort_library: Option<&Path>,
+) -> PathBuf {
+    let example = std::fs::read_to_string(repo_file("systemd/mgmot.example.toml"))
+        .expect("reading systemd/mgmot.example.toml");
+    let mut out = String::new();
+    for line in example.lines() {
+        if line.starts_with("model = ") {
+            out += &format!("model = {:?}\n", model.display().to_string());
+        } else if line.starts_with("backend = ") {
+            out += &format!("backend = {backend:?}\n");
+        } else if line.starts_with("ort_library = ") {
+            if let Some(lib) = ort_library {
+                out += &format!("ort_library = {:?}\n", lib.display().to_string());
+            }
+        } else {
+            out += line;
+            out += "\n";
+        }
+    }
+    dir.write("mgmot.toml", out)
+}
+
 /// The `mgmot` binary of this build.
 pub fn mgmot() -> TestCommand {
     TestCommand::new(env!("CARGO_BIN_EXE_mgmot"))

@@ -16,12 +16,15 @@
 //!   autopilot's component id); gimbal attitude from any component of the vehicle's system.
 //!   Anyone else's are dropped, counted and logged at a limited rate.
 //! - **TIMESYNC answers** count only when they answer one of our outstanding requests
-//!   ([`timesync`]), from the autopilot.
+//!   ([`timesync`]), from the autopilot. Others' TIMESYNC are normal traffic, not spoofing:
+//!   ArduPilot forwards our requests to its other links and brings their ground stations'
+//!   answers back (307 in 6 min on SITL). They are counted and logged at debug only.
 //! - **commands** from anyone are passed on with whether they were signed; a command
 //!   addressed to mgmot whose id the dialect does not know is answered
 //!   MAV_RESULT_UNSUPPORTED here (it cannot be decoded into a typed message).
 //!
-//! What is kept alive: the telemetry streams are asked for once the autopilot has been heard,
+//! What is kept alive: the telemetry streams are asked for once the autopilot has been heard
+//! (those some autopilot type does not send, once its HEARTBEAT has named its type),
 //! again whenever they stop flowing, and from scratch after the autopilot reboots (its boot
 //! clock goes back) or comes back after silence ([`streams`]). TCP and serial reconnect with
 //! back-off; a peer that stops reading cannot stall the link (writes time out).
@@ -238,8 +241,11 @@ pub struct LinkStats {
     pub telemetry_from_others: u64,
     /// Signed frames refused (bad signature, replay, timestamp out of bounds).
     pub signing_refused: u64,
-    /// TIMESYNC answers that answered no request of ours.
+    /// TIMESYNC answers from the autopilot that answered no request of ours.
     pub timesync_unmatched: u64,
+    /// TIMESYNC (answers and requests) from senders other than the autopilot: ground
+    /// stations answering the requests the autopilot forwarded to them.
+    pub timesync_from_others: u64,
     /// Events dropped because the pipeline fell behind.
     pub events_dropped: u64,
     /// Connections (re)opened.
@@ -359,6 +365,9 @@ enum Origin {
     /// Only the autopilot's is used; others' are normal traffic on a shared link (a ground
     /// station's HEARTBEAT, acks meant for others), dropped quietly.
     AutopilotQuiet,
+    /// TIMESYNC: only the autopilot's is used; others' are ground stations answering the
+    /// requests the autopilot forwarded to them, counted and dropped quietly.
+    AutopilotClock,
     /// Any component of the vehicle's system.
     Vehicle,
     /// Anyone (commands).
@@ -372,8 +381,8 @@ fn origin(m: &MavMessage) -> Origin {
     match m {
         MavMessage::GLOBAL_POSITION_INT(_)
         | MavMessage::ATTITUDE(_)
-        | MavMessage::HOME_POSITION(_)
-        | MavMessage::TIMESYNC(_) => Origin::Autopilot,
+        | MavMessage::HOME_POSITION(_) => Origin::Autopilot,
+        MavMessage::TIMESYNC(_) => Origin::AutopilotClock,
         MavMessage::HEARTBEAT(_) | MavMessage::SYSTEM_TIME(_) | MavMessage::COMMAND_ACK(_) => {
             Origin::AutopilotQuiet
         }
@@ -775,6 +784,16 @@ impl LinkTask {
             Origin::Autopilot => from_autopilot && telemetry_ok,
             Origin::AutopilotQuiet if !from_autopilot => return,
             Origin::AutopilotQuiet => telemetry_ok,
+            Origin::AutopilotClock if !from_autopilot => {
+                self.stats.timesync_from_others += 1;
+                tracing::debug!(
+                    system_id,
+                    component_id,
+                    "TIMESYNC from a sender other than the autopilot ignored"
+                );
+                return;
+            }
+            Origin::AutopilotClock => telemetry_ok,
             Origin::Vehicle => vehicle && telemetry_ok,
             Origin::Anyone => true,
             Origin::Ignored => return,
@@ -805,6 +824,10 @@ impl LinkTask {
                     });
                 } else {
                     self.stats.timesync_unmatched += 1;
+                    tracing::debug!(
+                        ts1 = t.ts1,
+                        "TIMESYNC answer from the autopilot to no request of ours ignored"
+                    );
                 }
                 return;
             }
@@ -888,6 +911,9 @@ impl LinkTask {
             self.streams.reset(now);
         }
         self.autopilot_heard = Some(Instant::now());
+        if let MavMessage::HEARTBEAT(hb) = m {
+            self.streams.autopilot_type(hb.autopilot);
+        }
         self.streams.seen(m.message_id(), now);
     }
 

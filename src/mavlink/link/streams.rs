@@ -5,8 +5,17 @@
 //! from us (UDP) is lost. So a stream is asked for once the autopilot is known to be there, one
 //! request outstanding at a time (a COMMAND_ACK does not say which message it answers), and
 //! again whenever it stops flowing, with a back-off; a stream the autopilot refuses (DENIED,
-//! UNSUPPORTED, FAILED) is not asked for again until it reboots. Pure: times are passed in.
+//! UNSUPPORTED, FAILED) is not asked for again until it reboots.
+//!
+//! Some streams a type of autopilot is known not to send ([`not_sent_by`]): ArduPilot refuses
+//! MOUNT_ORIENTATION, and tells the operator's ground station "No ap_message for mavlink id
+//! (265)" each time it is asked. Such a stream waits for the autopilot's HEARTBEAT, which
+//! names its type, and is not asked of an autopilot known not to send it. Pure: times and the
+//! autopilot's type are passed in.
 
+#[allow(deprecated)] // MOUNT_ORIENTATION: deprecated in common.xml, still sent by some gimbals
+use crate::mavlink::dialect::{MavAutopilot, MOUNT_ORIENTATION_DATA};
+use mavlink_core::MessageData;
 use std::time::Duration;
 
 /// How long to wait for the COMMAND_ACK of one request before sending the next.
@@ -25,6 +34,27 @@ pub enum StreamState {
     Requested,
     /// The autopilot answered the request with a refusal.
     Refused,
+    /// Not asked: the autopilot's type is known not to send it ([`not_sent_by`]).
+    NotSent,
+}
+
+/// The streams an autopilot of type `autopilot` (its HEARTBEAT's `autopilot` field) is known
+/// not to send, whatever it is asked.
+#[allow(deprecated)] // MOUNT_ORIENTATION: deprecated in common.xml, still sent by some gimbals
+pub fn not_sent_by(autopilot: MavAutopilot) -> &'static [u32] {
+    match autopilot {
+        // Upstream 90700977c5 on SITL: DENIED, "No ap_message for mavlink id (265)".
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA => &[MOUNT_ORIENTATION_DATA::ID],
+        _ => &[],
+    }
+}
+
+/// Whether some type of autopilot does not send `message_id`: its request waits for the
+/// autopilot's type.
+fn depends_on_autopilot_type(message_id: u32) -> bool {
+    [MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA]
+        .into_iter()
+        .any(|a| not_sent_by(a).contains(&message_id))
 }
 
 #[derive(Debug, Clone)]
@@ -46,6 +76,8 @@ pub struct StreamRequests {
     streams: Vec<Stream>,
     /// The stream whose request is waiting for its COMMAND_ACK, and when it was sent.
     outstanding: Option<(usize, Duration)>,
+    /// The autopilot's type, once its HEARTBEAT has been heard.
+    autopilot: Option<MavAutopilot>,
 }
 
 /// A request to send now.
@@ -85,6 +117,27 @@ impl StreamRequests {
                 })
                 .collect(),
             outstanding: None,
+            autopilot: None,
+        }
+    }
+
+    /// The autopilot's HEARTBEAT named its type: the streams it is known not to send are
+    /// not asked for (the others are unaffected; the type outlives reboots).
+    pub fn autopilot_type(&mut self, autopilot: MavAutopilot) {
+        if self.autopilot == Some(autopilot) {
+            return;
+        }
+        self.autopilot = Some(autopilot);
+        let not_sent = not_sent_by(autopilot);
+        for (i, s) in self.streams.iter_mut().enumerate() {
+            if not_sent.contains(&s.message_id) {
+                s.state = StreamState::NotSent;
+                if self.outstanding.is_some_and(|(o, _)| o == i) {
+                    self.outstanding = None;
+                }
+            } else if s.state == StreamState::NotSent {
+                s.state = StreamState::Wanted;
+            }
         }
     }
 
@@ -130,7 +183,11 @@ impl StreamRequests {
     /// The autopilot rebooted (or came back after silence): it forgot every request.
     pub fn reset(&mut self, now: Duration) {
         self.outstanding = None;
-        for s in &mut self.streams {
+        for s in self
+            .streams
+            .iter_mut()
+            .filter(|s| s.state != StreamState::NotSent)
+        {
             s.state = StreamState::Wanted;
             s.last_seen = None;
             s.next_request = now;
@@ -176,8 +233,12 @@ impl StreamRequests {
                     .is_some_and(|t| now.saturating_sub(t) <= Self::window(s.rate_hz))
             })
             .collect();
+        let type_known = self.autopilot.is_some();
         let (i, s) = self.streams.iter_mut().enumerate().find(|(i, s)| {
-            s.state != StreamState::Refused && (s.force || !flowing[*i]) && now >= s.next_request
+            !matches!(s.state, StreamState::Refused | StreamState::NotSent)
+                && (type_known || !depends_on_autopilot_type(s.message_id))
+                && (s.force || !flowing[*i])
+                && now >= s.next_request
         })?;
         s.force = false;
         s.next_request = now + s.retry;
@@ -232,15 +293,38 @@ mod tests {
 
     #[test]
     fn refused_streams_are_not_asked_again_until_a_reboot() {
-        let mut r = StreamRequests::new(&[(265, 50.0)]);
+        let mut r = StreamRequests::new(&[(242, 50.0)]);
         assert!(r.poll(S(0)).is_some());
         r.ack(AckOutcome::Refused, S(5));
         for t in (0..120).map(|s| S(s * 1000)) {
             assert_eq!(r.poll(t), None);
         }
-        assert_eq!(r.state(265), Some(StreamState::Refused));
+        assert_eq!(r.state(242), Some(StreamState::Refused));
         r.reset(S(120_000));
         assert!(r.poll(S(120_000)).is_some());
+    }
+
+    #[test]
+    fn mount_orientation_waits_for_the_autopilot_type_and_is_not_asked_of_ardupilot() {
+        let mut r = StreamRequests::new(&[(265, 50.0), (33, 50.0)]);
+        assert_eq!(r.poll(S(0)).map(|q| q.message_id), Some(33), "265 waits");
+        r.ack(AckOutcome::Accepted, S(5));
+        assert_eq!(r.poll(S(10)), None);
+        r.autopilot_type(MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA);
+        for t in (0..120).map(|s| S(s * 1000)) {
+            r.seen(33, t);
+            assert_eq!(r.poll(t), None);
+        }
+        assert_eq!(r.state(265), Some(StreamState::NotSent));
+        r.reset(S(120_000));
+        assert_eq!(r.poll(S(120_000)).map(|q| q.message_id), Some(33));
+        r.ack(AckOutcome::Accepted, S(120_005));
+        assert_eq!(r.poll(S(120_010)), None, "not asked after a reboot either");
+
+        let mut r = StreamRequests::new(&[(265, 50.0)]);
+        assert_eq!(r.poll(S(0)), None);
+        r.autopilot_type(MavAutopilot::MAV_AUTOPILOT_PX4);
+        assert_eq!(r.poll(S(10)).map(|q| q.message_id), Some(265));
     }
 
     #[test]
