@@ -208,7 +208,8 @@ fn check_decoders(msg: &MavMessage, from_component: u8, time_us: u64) {
             Incoming::Position(p) => {
                 assert!(geodetic_ok(&p.sample.position), "{name}: {p:?}");
                 assert!(
-                    p.velocity_ned_mps.is_none_or(|v| v.iter().all(|c| c.is_finite())),
+                    p.velocity_ned_mps
+                        .is_none_or(|v| v.iter().all(|c| c.is_finite())),
                     "{name}: {p:?}"
                 );
                 name == "GLOBAL_POSITION_INT"

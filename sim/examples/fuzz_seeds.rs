@@ -288,11 +288,16 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
         provisional: false,
     };
     messages.push((link::heartbeat(), 1, ours));
-    messages.push((
-        link::statustext(Severity::Warning, "mgmot: no telemetry"),
-        1,
-        ours,
-    ));
+    // A short text and a long one in chunks (id, chunk_seq).
+    for text in [
+        "mgmot: no telemetry",
+        "mgmot: recording stopped: Input/output error (os error 5), the flight goes on",
+    ] {
+        let id = std::num::NonZeroU16::MIN;
+        for m in link::statustext(Severity::Warning, text, id) {
+            messages.push((m, 1, ours));
+        }
+    }
     messages.push((link::mgmot_track(&report), 1, ours));
     if let Some(m) = link::target_absolute(&report) {
         messages.push((m, 1, ours));
