@@ -345,7 +345,9 @@ impl Writer {
         )
         .map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Micros, true))
         .unwrap_or_default();
-        let files = flight::create(&self.settings.dir, &info, &self.config_toml)?;
+        let mut avoid = self.deleted.clone();
+        avoid.push(self.files.dir.clone());
+        let files = flight::create_avoiding(&self.settings.dir, &info, &self.config_toml, &avoid)?;
         tracing::info!(dir = %files.dir.display(), "flight recording continues in a fresh folder");
         let old = std::mem::replace(&mut self.files, files);
         self.deleted.push(old.dir);
