@@ -14,6 +14,8 @@ command -v pkg-config >/dev/null 2>&1 || need_apt+=(pkg-config)
 # scripts/check_unit.sh (systemd-analyze) and the installer test (objcopy, strip).
 command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
 command -v objcopy >/dev/null 2>&1 || need_apt+=(binutils)
+# The permission tests run mgmot without CAP_DAC_OVERRIDE through capsh (tests/common).
+command -v capsh >/dev/null 2>&1 || [ -x /usr/sbin/capsh ] || [ -x /sbin/capsh ] || need_apt+=(libcap2-bin)
 # bindgen (used by the v4l crate) needs libclang.
 compgen -G "/usr/lib/llvm-*/lib/libclang.so*" >/dev/null || compgen -G "/usr/lib/*-linux-gnu/libclang.so*" >/dev/null || need_apt+=(libclang-dev)
 

@@ -406,6 +406,65 @@ async fn item4_signing_clock_cannot_be_pushed_and_survives_restarts() {
     assert_eq!(stats.signing_refused, 1);
 }
 
+/// Issue 39 item 11: a signed command accepted just before a SIGKILL cannot be replayed after
+/// the restart. The state file is copied the moment the command reaches the link's consumer
+/// (what a SIGKILL then would leave on disk: no periodic save, no save at close), and the
+/// restarted link starts from that copy.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue39_item11_a_signed_command_is_persisted_before_it_is_acted_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("signing.json");
+    let at_kill = dir.path().join("signing-at-kill.json");
+    let port = free_udp_port();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.signing = Some(SigningSettings {
+        key: KEY,
+        link_id: 3,
+        state_file: Some(state.clone()),
+    });
+    let (link, _sender, mut events) = start(s.clone());
+    let autopilot = Peer::new();
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let t0 = now_signing();
+    autopilot.send(addr, &frame(AUTOPILOT, &heartbeat(), Some((KEY, 0, t0))));
+    let stop = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_CAMERA_STOP_TRACKING,
+        target_system: 1,
+        target_component: 191,
+        ..Default::default()
+    });
+    let captured_stop = frame(GCS, &stop, Some((KEY, 1, t0 + 10)));
+    autopilot.send(addr, &captured_stop);
+    let until = tokio::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        let e = tokio::time::timeout_at(until, events.recv())
+            .await
+            .expect("the command within 2 s")
+            .expect("the link is up");
+        if matches!(&e, LinkEvent::Message(r) if matches!(r.message, MavMessage::COMMAND_LONG(_))) {
+            // Acted on now: the state on disk is what a SIGKILL would leave.
+            std::fs::copy(&state, &at_kill).unwrap();
+            break;
+        }
+    }
+    link.close().await;
+    std::fs::copy(&at_kill, &state).unwrap();
+
+    let (link, _sender, mut events) = start(s);
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let hb = frame(AUTOPILOT, &heartbeat(), Some((KEY, 0, now_signing())));
+    autopilot.send(addr, &hb);
+    autopilot.send(addr, &captured_stop);
+    let got = events_for(&mut events, Duration::from_millis(400)).await;
+    let stats = link.close().await;
+    let replayed = got.iter().any(
+        |e| matches!(e, LinkEvent::Message(r) if matches!(r.message, MavMessage::COMMAND_LONG(_))),
+    );
+    assert!(!replayed, "replayed after a SIGKILL and a restart: {got:?}");
+    assert_eq!(stats.signing_refused, 1, "{stats:?}");
+}
+
 /// Item 5: a command addressed to mgmot whose id the dialect does not know (it cannot even
 /// be decoded) is answered COMMAND_ACK MAV_RESULT_UNSUPPORTED, with its own id.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

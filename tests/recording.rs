@@ -413,3 +413,46 @@ exit $status
         .unwrap();
     assert!(identical as usize >= before, "{s}");
 }
+
+/// Issue 39 item 10: a recording folder that cannot be written at start (read-only) is said
+/// to the operator by STATUSTEXT once the link has its peer, not only in the log; the flight
+/// goes on without a record.
+#[test]
+fn a_read_only_recording_folder_at_start_is_said_to_the_operator() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = TestDir::new();
+    let scenario = Scenario::new("calm_baseline", 8.0).size(640, 360);
+    let dets = dir.join("dets.json");
+    scenario.detections(&dets);
+    let socket = dir.join("frames.sock");
+    let port = free_udp_port();
+    let relay = common::Relay::start(port);
+    let rec = dir.join("rec");
+    std::fs::create_dir_all(&rec).unwrap();
+    std::fs::set_permissions(&rec, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let mut c = run_config(&format!("udpin:127.0.0.1:{port}"), &socket, &dets);
+    c.recording.dir = Some(rec.join("flights"));
+    let cfg = dir.write_config("mgmot.toml", &c);
+    let mut mgmot = common::mgmot_bound_by_permissions();
+    mgmot.args(["run", "--config"]).arg(&cfg);
+    let mut mgmot = mgmot.spawn_logged(dir.join("mgmot.log"));
+    let mut sim = scenario
+        .run(true, relay.listen_port, &socket)
+        .spawn_logged(dir.join("sim.log"));
+    sim.wait_or_fail(Duration::from_secs(60));
+    let status = mgmot.wait_or_fail(Duration::from_secs(20));
+    assert!(status.success(), "mgmot run: {status}\n{}", mgmot.log());
+    let log = mgmot.log();
+    assert!(log.contains("cannot record this flight"), "{log}");
+    assert!(!rec.join("flights").exists());
+    let texts = statustexts(&relay);
+    let off: Vec<_> = texts
+        .iter()
+        .filter(|t| t.contains("recording off"))
+        .collect();
+    assert_eq!(off.len(), 1, "{texts:?}\n{log}");
+    assert!(
+        relay.sent.lock().unwrap().len() > 20,
+        "the flight went on without a record"
+    );
+}

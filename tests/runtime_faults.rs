@@ -229,3 +229,85 @@ fn an_unopenable_frame_socket_is_named_at_start_up() {
         "{err}"
     );
 }
+
+/// Issue 39 item 10: a frame socket that appears after start-up with permissions that refuse
+/// mgmot is reported, in the log and by STATUSTEXT, once for the episode, instead of being
+/// retried in silence after the first "camera lost".
+#[test]
+fn a_frame_socket_that_appears_later_without_permission_is_reported_once() {
+    use mavlink_core::{MAVLinkV2MessageRaw, MavHeader};
+    use mgmot::mavlink::dialect::{MavMessage, HEARTBEAT_DATA};
+    use std::os::unix::fs::PermissionsExt;
+    let dir = TestDir::new();
+    let socket = dir.join("frames.sock");
+    let port = free_udp_port();
+    let relay = common::Relay::start(port);
+    let mut c = run_config(
+        &format!("udpin:127.0.0.1:{port}"),
+        &socket,
+        &dir.empty_detections(),
+    );
+    let FramesConfig::Sim {
+        reconnect_initial_ms,
+        reconnect_max_ms,
+        ..
+    } = &mut c.frames
+    else {
+        unreachable!()
+    };
+    (*reconnect_initial_ms, *reconnect_max_ms) = (100, 200);
+    let cfg = dir.write_config("mgmot.toml", &c);
+    let mut cmd = common::mgmot_bound_by_permissions();
+    cmd.args(["run", "--config"]).arg(&cfg);
+    let mut mgmot = cmd.spawn_logged(dir.join("mgmot.log"));
+    // The autopilot's heartbeat through the relay: mgmot's peer, so its STATUSTEXTs go out.
+    let mut raw = MAVLinkV2MessageRaw::new();
+    raw.serialize_message(
+        MavHeader {
+            system_id: 1,
+            component_id: 1,
+            sequence: 0,
+        },
+        &MavMessage::HEARTBEAT(HEARTBEAT_DATA::default()),
+    );
+    let autopilot = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let started = Instant::now();
+    let mut listener = None;
+    while started.elapsed() < Duration::from_secs(6) {
+        autopilot
+            .send_to(raw.raw_bytes(), ("127.0.0.1", relay.listen_port))
+            .unwrap();
+        if listener.is_none() && started.elapsed() > Duration::from_secs(2) {
+            // The socket appears, already without permissions (bound aside, renamed in).
+            let aside = dir.join("frames.sock.new");
+            let l = UnixListener::bind(&aside).unwrap();
+            std::fs::set_permissions(&aside, std::fs::Permissions::from_mode(0o000)).unwrap();
+            std::fs::rename(&aside, &socket).unwrap();
+            listener = Some(l);
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    mgmot.stop(Duration::from_secs(10));
+    let log = mgmot.log();
+    let texts: Vec<String> = relay
+        .sent
+        .lock()
+        .unwrap()
+        .iter()
+        .filter_map(|s| match &s.msg {
+            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_owned),
+            _ => None,
+        })
+        .collect();
+    let denied: Vec<_> = texts
+        .iter()
+        .filter(|t| t.to_lowercase().contains("permission denied"))
+        .collect();
+    assert_eq!(denied.len(), 1, "{texts:?}\n{log}");
+    assert_eq!(
+        log.matches("frame source refuses mgmot").count(),
+        1,
+        "said once in the log:\n{log}"
+    );
+    drop(listener);
+}

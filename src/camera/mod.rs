@@ -130,6 +130,16 @@ pub enum CameraError {
 }
 
 impl CameraError {
+    /// True when the source is there but this user may not open it.
+    pub fn is_permission_denied(&self) -> bool {
+        let io = match self {
+            CameraError::Device { source, .. } => source,
+            CameraError::Sim(SimFramingError::Io { source, .. }) => source,
+            _ => return false,
+        };
+        io.kind() == std::io::ErrorKind::PermissionDenied
+    }
+
     /// True when only one frame is spoiled and the source can go on.
     pub fn is_frame_error(&self) -> bool {
         matches!(

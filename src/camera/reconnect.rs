@@ -47,6 +47,10 @@ pub enum CameraStatus {
     Lost,
     /// Frames flow again after a loss.
     Back,
+    /// The source is there but refuses mgmot (permission denied): said once per episode,
+    /// after [`CameraStatus::Lost`], so that a socket or device node that appears with the
+    /// wrong permissions is not retried in silence.
+    Denied,
 }
 
 /// Whether the camera is lost, and the backoff of the attempts to get it back.
@@ -56,6 +60,8 @@ pub struct Reconnect {
     backoff: Backoff,
     /// "Lost" has been reported and "back" not yet: each is said once per loss.
     lost: bool,
+    /// "Denied" has been reported and the source has not opened or gone missing since.
+    denied: bool,
 }
 
 impl Reconnect {
@@ -64,6 +70,19 @@ impl Reconnect {
         Self {
             backoff,
             lost: false,
+            denied: false,
+        }
+    }
+
+    /// An open failed; `denied`: for lack of permission. True when that is news to report
+    /// ([`CameraStatus::Denied`]): the first denial of an episode, which ends when the source
+    /// opens or fails for another reason.
+    pub fn refused(&mut self, denied: bool) -> bool {
+        if denied {
+            !std::mem::replace(&mut self.denied, true)
+        } else {
+            self.denied = false;
+            false
         }
     }
 

@@ -88,8 +88,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(t) = &review.truth {
         writeln!(
             out,
-            "truth: {} reports matched, error median {:.2} m, p95 {:.2} m, max {:.2} m",
-            t.matched, t.overall.median_m, t.overall.p95_m, t.overall.max_m
+            "truth: {} reports matched, error median {:.2} m, p95 {:.2} m, max {:.2} m; \
+             {} unmatched, {} timed by the companion's clock, {} without a time in the truth",
+            t.matched,
+            t.overall.median_m,
+            t.overall.p95_m,
+            t.overall.max_m,
+            t.unmatched,
+            t.retimed,
+            t.untimed
         )?;
     }
     writeln!(out, "report:  {}", written.report.display())?;

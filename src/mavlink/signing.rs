@@ -8,8 +8,10 @@
 //!   protection (link id, system, component), and two bounds `mavlink_core`'s own verifier
 //!   lacks: a frame stamped more than [`MAX_FORWARD_SKEW`] ahead of our clock is refused (a
 //!   peer cannot push our clock, and so our outgoing timestamps, forward), and the stream
-//!   timestamps and our own last timestamp are persisted ([`Signer::persist`]) so that a signed
-//!   frame captured before a restart cannot be replayed after it;
+//!   timestamps and our own last timestamp are persisted ([`Signer::persist`], synced to disk;
+//!   the link persists them before a signed command is handed on) so that a signed frame
+//!   captured before a restart, even a SIGKILL right after the command, cannot be replayed
+//!   after it;
 //! - unsigned frames are let through, marked, so that telemetry from an autopilot or router
 //!   that does not sign still feeds the geolocation; commands that were not signed are refused
 //!   (COMMAND_ACK MAV_RESULT_DENIED) and not carried out.
@@ -211,8 +213,9 @@ impl Signer {
         self.dirty
     }
 
-    /// Writes the state file (atomically: a temporary file renamed over it), if one is
-    /// configured.
+    /// Writes the state file (atomically: a temporary file, synced, renamed over it, and the
+    /// folder synced), if one is configured: once this returns, the state survives a SIGKILL or
+    /// a power cut.
     pub fn persist(&mut self) -> Result<(), SigningStateError> {
         let Some(path) = &self.state_file else {
             return Ok(());
@@ -233,8 +236,22 @@ impl Signer {
         let mut tmp = path.clone().into_os_string();
         tmp.push(".tmp");
         let tmp = PathBuf::from(tmp);
-        std::fs::write(&tmp, bytes).map_err(|e| err(format!("{}: {e}", tmp.display())))?;
+        let write = || -> std::io::Result<()> {
+            use std::io::Write;
+            let mut file = std::fs::File::create(&tmp)?;
+            file.write_all(&bytes)?;
+            file.sync_all()
+        };
+        write().map_err(|e| err(format!("{}: {e}", tmp.display())))?;
         std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))?;
+        // The rename itself is durable once the folder is synced.
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        std::fs::File::open(dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| err(format!("{}: {e}", dir.display())))?;
         self.dirty = false;
         Ok(())
     }

@@ -277,7 +277,10 @@ pub(super) fn capture_loop<S: FrameSource>(
             IndexRebase::new(next_index)
         };
         let mut source = match open(next_index) {
-            Ok(s) => s,
+            Ok(s) => {
+                reconnect.refused(false);
+                s
+            }
             Err(e) => {
                 let (status, delay) = reconnect.open_failed();
                 if let Some(status) = status {
@@ -285,6 +288,10 @@ pub(super) fn capture_loop<S: FrameSource>(
                     report(status);
                 } else {
                     tracing::debug!(error = %e, retry_in_ms = delay.as_millis() as u64, "camera still lost");
+                }
+                if reconnect.refused(e.is_permission_denied()) {
+                    tracing::warn!(error = %e, "the frame source refuses mgmot (permission denied); retrying");
+                    report(CameraStatus::Denied);
                 }
                 wait(delay);
                 continue;

@@ -19,14 +19,16 @@ use std::collections::HashSet;
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
-/// Starts the recorder of this run, or says why not (the run goes on without one).
-/// `outputs` is filled once the link is up; the recorder's announcements wait for it.
+/// Starts the recorder of this run, or logs why not and returns the notice for the operator
+/// (the run goes on without a record; the link is not up yet, so the caller sends it once the
+/// link has its peer). `outputs` is filled once the link is up; the recorder's announcements
+/// wait for it.
 pub(super) fn start(
     settings: &Settings,
     rec: &RecordingSettings,
     config_toml: &str,
     outputs: Arc<OnceLock<Outputs>>,
-) -> Option<Recorder> {
+) -> Result<Recorder, Notice> {
     let started_unix_us = unix_us_now();
     let started_utc =
         chrono::DateTime::from_timestamp_micros(i64::try_from(started_unix_us).unwrap_or(i64::MAX))
@@ -52,17 +54,28 @@ pub(super) fn start(
     match Recorder::start(rec, &info, config_toml, announce) {
         Ok(r) => {
             tracing::info!(dir = %r.dir().display(), "recording this flight");
-            Some(r)
+            Ok(r)
         }
         Err(e) => {
             tracing::error!(error = %e, "cannot record this flight; tracking without a record");
-            if let Some(o) = outputs.get() {
-                o.notice(&Notice::new(
-                    Level::Warning,
-                    "mgmot: recording off: cannot write",
-                ));
-            }
-            None
+            let why = match &e {
+                crate::record::RecordError::Io { source, .. }
+                    if source.kind() == std::io::ErrorKind::PermissionDenied
+                        || source.raw_os_error() == Some(libc::EROFS) =>
+                {
+                    "read-only"
+                }
+                crate::record::RecordError::Io { source, .. }
+                    if source.raw_os_error() == Some(libc::ENOSPC) =>
+                {
+                    "disk full"
+                }
+                _ => "cannot write",
+            };
+            Err(Notice::new(
+                Level::Warning,
+                format!("mgmot: recording off: {why}"),
+            ))
         }
     }
 }

@@ -18,7 +18,7 @@ use super::stats::RunStats;
 use super::telemetry::TelemetryState;
 use crate::camera::CameraStatus;
 use crate::config::{DetectorSettings, MavlinkSettings, Settings};
-use crate::health::{Condition, ConditionReport};
+use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, OperatorRequest};
 use crate::mavlink::{Outputs, SigningSettings};
 use crate::track::Tracker;
@@ -53,10 +53,15 @@ pub async fn run(
     let tracker = Tracker::new(settings.tracker.clone())
         .map_err(|e| PipelineError::Tracker(e.to_string()))?;
     let announce_to = Arc::new(OnceLock::new());
-    let recorder = settings
+    let (recorder, recording_off) = match settings
         .recording
         .as_ref()
-        .and_then(|r| recording::start(&settings, r, effective_config, announce_to.clone()));
+        .map(|r| recording::start(&settings, r, effective_config, announce_to.clone()))
+    {
+        Some(Ok(r)) => (Some(r), None),
+        Some(Err(notice)) => (None, Some(notice)),
+        None => (None, None),
+    };
     let mut link_settings = link_settings(&settings.mavlink);
     link_settings.tap = recorder.as_ref().map(|r| recording::packet_tap(r.sink()));
     let (link, inbox, outputs) =
@@ -84,6 +89,7 @@ pub async fn run(
         request_tx,
         outputs.clone(),
         stop.clone(),
+        recording_off,
     ));
     tasks.spawn(heartbeat_and_telemetry_watch(
         outputs.clone(),
@@ -102,10 +108,16 @@ pub async fn run(
         writer,
         stop.clone(),
         captured.clone(),
-        move |status| {
-            let ok = matches!(status, CameraStatus::Back);
-            if let Some(n) = camera.observe(ok, None) {
-                announce(&camera_outputs, &n);
+        move |status| match status {
+            CameraStatus::Denied => announce(
+                &camera_outputs,
+                &Notice::new(Level::Warning, "mgmot: camera: permission denied"),
+            ),
+            CameraStatus::Lost | CameraStatus::Back => {
+                let ok = matches!(status, CameraStatus::Back);
+                if let Some(n) = camera.observe(ok, None) {
+                    announce(&camera_outputs, &n);
+                }
             }
         },
     );
@@ -178,12 +190,23 @@ pub async fn run(
             .ok()
             .and_then(|s| serde_json::to_value(s).ok());
         let dir = r.dir().to_owned();
-        let end = tokio::task::spawn_blocking(move || r.finish(counters))
+        let closed = tokio::task::spawn_blocking(move || r.finish(counters))
             .await
             .ok()
             .flatten();
-        if let Some(end) = end {
-            tracing::info!(dir = %dir.display(), frames = end.frames_written, "flight recorded");
+        match closed {
+            Some(c) if c.deleted.is_empty() && c.stopped.is_none() => tracing::info!(
+                dir = %c.dir.display(), frames = c.end.frames_written,
+                lost_while_stopped = c.end.frames_lost_stopped, "flight recorded"
+            ),
+            Some(c) => tracing::warn!(
+                dir = %c.dir.display(), frames = c.end.frames_written,
+                frames_in_deleted_folders = c.frames_written_total - c.end.frames_written,
+                deleted = ?c.deleted, stopped = ?c.stopped,
+                lost_while_stopped = c.end.frames_lost_stopped,
+                "flight recorded in part"
+            ),
+            None => tracing::warn!(dir = %dir.display(), "flight record not closed"),
         }
     }
     let stats = result?;
@@ -206,19 +229,27 @@ fn forward_shutdown(mut shutdown: Shutdown, stop: Arc<Trigger>) -> tokio::task::
 }
 
 /// The link's receive task: telemetry updates into the shared state, operator requests onto
-/// the frame step's queue (answered "try again" when it is full).
+/// the frame step's queue (answered "try again" when it is full). `pending` is said to the
+/// operator at the first input, when the link has its peer (sent earlier, on `udpin`, it would
+/// go nowhere).
 async fn receive(
     mut inbox: Inbox,
     telemetry: Arc<Mutex<TelemetryState>>,
     requests: std::sync::mpsc::SyncSender<OperatorRequest>,
     outputs: Outputs,
     mut stop: Shutdown,
+    mut pending: Option<Notice>,
 ) {
     loop {
         let input = tokio::select! {
             _ = stop.recv() => break,
             i = inbox.recv() => i,
         };
+        if input.is_some() {
+            if let Some(n) = pending.take() {
+                outputs.notice(&n);
+            }
+        }
         match input {
             None => break,
             Some(LinkInput::Telemetry(u)) => match telemetry.lock() {

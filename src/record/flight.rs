@@ -56,12 +56,28 @@ pub(super) fn create(
     info: &FlightInfo,
     config_toml: &str,
 ) -> Result<FlightFiles, RecordError> {
+    create_avoiding(root, info, config_toml, &[])
+}
+
+/// [`create`], never with one of the names in `avoid` (folders of this flight that were
+/// deleted: a fresh folder must not look like the deleted one recreated).
+pub(super) fn create_avoiding(
+    root: &Path,
+    info: &FlightInfo,
+    config_toml: &str,
+    avoid: &[PathBuf],
+) -> Result<FlightFiles, RecordError> {
     std::fs::create_dir_all(root).map_err(io_err(root))?;
     let base = folder_name(info.started_unix_us, info.system_id);
     let mut dir = root.join(&base);
     let mut n = 1;
     // Two runs in one second (a restart): the second gets a suffix.
     loop {
+        if avoid.contains(&dir) && n < 100 {
+            n += 1;
+            dir = root.join(format!("{base}-{n}"));
+            continue;
+        }
         match std::fs::create_dir(&dir) {
             Ok(()) => break,
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 100 => {

@@ -25,8 +25,13 @@ pub fn write(path: &Path, mut k: KeyframeImage, width_px: u32) -> io::Result<()>
     Resizer::new()
         .resize(&src, &mut dst, &ResizeOptions::new())
         .map_err(io::Error::other)?;
+    // `keyframes/` only, never the flight's folder above it: a folder deleted mid-flight is
+    // not recreated here (the recorder notices and says so).
     if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent)?;
+        match std::fs::create_dir(parent) {
+            Err(e) if e.kind() != io::ErrorKind::AlreadyExists => return Err(e),
+            _ => {}
+        }
     }
     let tmp = path.with_extension("jpg.part");
     {

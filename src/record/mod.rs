@@ -10,7 +10,9 @@ mod recorder;
 pub mod tlog;
 
 pub use flight::Flight;
-pub use recorder::{unix_us_now, Announce, KeyframeImage, RecordSink, Recorder, RETRY_EVERY};
+pub use recorder::{
+    unix_us_now, Announce, Closed, KeyframeImage, RecordSink, Recorder, RETRY_EVERY,
+};
 
 use std::path::PathBuf;
 

@@ -13,6 +13,10 @@
 //!   when it succeeds recording resumes, with a [`GapRecord`] saying what was lost.
 //! - `recording.max_total_mb`: the oldest other flights are deleted to stay under the cap;
 //!   a flight that alone outgrows it stops recording, as above.
+//! - The flight's folder deleted mid-flight (its files' link count drops to 0) is announced
+//!   once (log and STATUSTEXT) and recording goes on in a fresh folder, which starts with a
+//!   [`GapRecord`] saying so; nothing is written into a recreated half-folder, and
+//!   [`Recorder::finish`] names the folders lost.
 
 use super::flight::{self, FlightFiles};
 use super::format::{EndRecord, FrameRecord, GapRecord, Record};
@@ -36,6 +40,8 @@ pub const RETRY_EVERY: Duration = Duration::from_secs(5);
 pub const RESUME_FREE_BYTES: u64 = 4 << 20;
 /// How often the size cap is checked.
 const CAP_CHECK_EVERY: Duration = Duration::from_secs(10);
+/// The gap's reason when the flight's folder was deleted.
+const FOLDER_DELETED: &str = "flight folder deleted";
 /// Longest wait for the queue before the files are synced anyway.
 const IDLE_SYNC: Duration = Duration::from_millis(200);
 
@@ -51,6 +57,21 @@ pub struct KeyframeImage {
     pub height_px: u32,
     /// Packed RGB24.
     pub rgb: Vec<u8>,
+}
+
+/// What [`Recorder::finish`] tells: the end record of the folder recording ended in.
+#[derive(Debug, Clone)]
+pub struct Closed {
+    /// The end record (of `dir`'s `frames.ndjson`).
+    pub end: EndRecord,
+    /// The folder recording ended in.
+    pub dir: PathBuf,
+    /// Earlier folders of this flight that were deleted while it was recorded.
+    pub deleted: Vec<PathBuf>,
+    /// Frames written over the whole run, deleted folders included.
+    pub frames_written_total: u64,
+    /// Why recording was stopped at the end, if it was (what came after is not recorded).
+    pub stopped: Option<String>,
 }
 
 enum Item {
@@ -114,7 +135,7 @@ pub fn unix_us_now() -> u64 {
 /// The running recorder of one flight.
 pub struct Recorder {
     sink: RecordSink,
-    thread: Option<JoinHandle<EndRecord>>,
+    thread: Option<JoinHandle<Closed>>,
     dir: PathBuf,
 }
 
@@ -141,6 +162,10 @@ impl Recorder {
         let counters = Arc::new(QueueCounters::default());
         let mut writer = Writer {
             files,
+            info: info.clone(),
+            config_toml: config_toml.to_owned(),
+            deleted: Vec::new(),
+            frames_written_total: 0,
             settings: settings.clone(),
             counters: counters.clone(),
             announce,
@@ -177,7 +202,7 @@ impl Recorder {
     }
 
     /// Writes what is queued and the end record (with the run's counters), closes the files.
-    pub fn finish(mut self, run_stats: Option<serde_json::Value>) -> Option<EndRecord> {
+    pub fn finish(mut self, run_stats: Option<serde_json::Value>) -> Option<Closed> {
         // Blocking send: the queue drains on its own; the end record must not be dropped.
         let _ = self.sink.tx.send(Item::Finish(run_stats));
         self.thread.take().and_then(|t| t.join().ok())
@@ -193,10 +218,18 @@ struct Stopped {
     packets_lost: u64,
     /// Stopped by the size cap (only space freed elsewhere resumes it).
     by_cap: bool,
+    /// The folder was deleted: recording resumes in a fresh one.
+    folder_deleted: bool,
 }
 
 struct Writer {
     files: FlightFiles,
+    /// The flight's `flight.json` and `config.toml`, for a fresh folder.
+    info: super::format::FlightInfo,
+    config_toml: String,
+    /// Folders of this flight deleted while it was recorded.
+    deleted: Vec<PathBuf>,
+    frames_written_total: u64,
     settings: RecordingSettings,
     counters: Arc<QueueCounters>,
     announce: Announce,
@@ -209,7 +242,7 @@ struct Writer {
 }
 
 impl Writer {
-    fn run(mut self, rx: &mpsc::Receiver<Item>) -> EndRecord {
+    fn run(mut self, rx: &mpsc::Receiver<Item>) -> Closed {
         let mut run_stats = None;
         loop {
             let item = match rx.try_recv() {
@@ -249,7 +282,7 @@ impl Writer {
             keyframes: self.keyframes,
             run_stats,
         };
-        if self.stopped.is_none() {
+        if self.stopped.is_none() && !self.folder_gone() {
             let line = record_line(&Record::End(end.clone()));
             if let Err(e) = line.and_then(|l| self.append_frames(&l)) {
                 tracing::warn!(error = %e, "flight record: end record not written");
@@ -263,11 +296,75 @@ impl Writer {
             lost_while_stopped = end.frames_lost_stopped,
             "flight record closed"
         );
-        end
+        Closed {
+            end,
+            dir: self.files.dir.clone(),
+            deleted: std::mem::take(&mut self.deleted),
+            frames_written_total: self.frames_written_total,
+            stopped: self.stopped.as_ref().map(|s| s.reason.clone()),
+        }
+    }
+
+    /// The flight's files were unlinked (their folder deleted): their link count is 0.
+    fn folder_gone(&self) -> bool {
+        use std::os::unix::fs::MetadataExt;
+        let unlinked = |f: &File| f.metadata().is_ok_and(|m| m.nlink() == 0);
+        unlinked(&self.files.frames) || unlinked(self.files.tlog.get_ref())
+    }
+
+    /// The folder was deleted: said once, and recording stops until a fresh folder is open
+    /// (tried at once, then every [`RETRY_EVERY`]).
+    fn folder_deleted(&mut self) {
+        tracing::error!(
+            dir = %self.files.dir.display(),
+            "flight recording folder deleted mid-flight; recording goes on in a fresh folder"
+        );
+        (self.announce)(Notice::new(
+            Level::Warning,
+            "mgmot: recording folder deleted; new folder",
+        ));
+        let now = Instant::now();
+        self.stopped = Some(Stopped {
+            since_unix_us: unix_us_now(),
+            reason: FOLDER_DELETED.to_owned(),
+            last_try: now.checked_sub(RETRY_EVERY).unwrap_or(now),
+            frames_lost: 0,
+            packets_lost: 0,
+            by_cap: false,
+            folder_deleted: true,
+        });
+    }
+
+    /// Opens a fresh folder for the rest of the flight (named by now), its counters from 0
+    /// but the frames lost in the current gap.
+    fn fresh_folder(&mut self) -> Result<(), RecordError> {
+        let mut info = self.info.clone();
+        info.started_unix_us = unix_us_now();
+        info.started_utc = chrono::DateTime::from_timestamp_micros(
+            i64::try_from(info.started_unix_us).unwrap_or(i64::MAX),
+        )
+        .map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Micros, true))
+        .unwrap_or_default();
+        let mut avoid = self.deleted.clone();
+        avoid.push(self.files.dir.clone());
+        let files = flight::create_avoiding(&self.settings.dir, &info, &self.config_toml, &avoid)?;
+        tracing::info!(dir = %files.dir.display(), "flight recording continues in a fresh folder");
+        let old = std::mem::replace(&mut self.files, files);
+        self.deleted.push(old.dir);
+        self.frames_written = 0;
+        self.keyframes = 0;
+        self.frames_lost_stopped = self.stopped.as_ref().map_or(0, |s| s.frames_lost);
+        if let Some(s) = &mut self.stopped {
+            s.folder_deleted = false;
+        }
+        Ok(())
     }
 
     fn write(&mut self, item: Item) {
         let frame = matches!(item, Item::Frame(..));
+        if frame && self.stopped.is_none() && self.folder_gone() {
+            self.folder_deleted();
+        }
         let retrying = self.stopped.is_some();
         if let Some(s) = &mut self.stopped {
             if s.by_cap || s.last_try.elapsed() < RETRY_EVERY {
@@ -275,7 +372,14 @@ impl Writer {
                 return;
             }
             s.last_try = Instant::now();
-            if free_bytes(&self.files.dir).is_some_and(|free| free < RESUME_FREE_BYTES) {
+            let fresh = s.folder_deleted;
+            if fresh || self.folder_gone() {
+                if let Err(e) = self.fresh_folder() {
+                    tracing::debug!(error = %e, "no fresh flight folder yet");
+                    self.lost(frame);
+                    return;
+                }
+            } else if free_bytes(&self.files.dir).is_some_and(|free| free < RESUME_FREE_BYTES) {
                 self.lost(frame);
                 return;
             }
@@ -296,6 +400,7 @@ impl Writer {
                 self.dirty = true;
                 if frame {
                     self.frames_written += 1;
+                    self.frames_written_total += 1;
                 }
                 if self.stopped.is_some() {
                     self.resumed();
@@ -403,6 +508,7 @@ impl Writer {
             frames_lost: 0,
             packets_lost: 0,
             by_cap,
+            folder_deleted: false,
         });
     }
 
@@ -441,6 +547,10 @@ impl Writer {
             packets_lost = s.packets_lost,
             "flight recording resumed"
         );
+        if s.reason == FOLDER_DELETED {
+            // The operator was told when it happened, new folder included.
+            return;
+        }
         (self.announce)(Notice::new(
             Level::Notice,
             format!("mgmot: recording resumed, {} frames lost", s.frames_lost),
@@ -572,7 +682,7 @@ mod tests {
         // 22,000 records queued in far less than the disk could take one by one.
         assert!(started.elapsed() < Duration::from_secs(2));
         let dir = rec.dir().to_owned();
-        let end = rec.finish(None).unwrap();
+        let end = rec.finish(None).unwrap().end;
         assert_eq!(end.frames_written + end.frames_dropped_queue, 2_000);
         assert!(end.packets_dropped_queue > 0, "{end:?}");
         let flight = Flight::load(&dir).unwrap();
@@ -623,5 +733,62 @@ mod tests {
             "{} packets: recording went on",
             packets.len()
         );
+    }
+
+    /// Issue 39 item 10: the flight's folder deleted mid-flight is said once (log and
+    /// STATUSTEXT); no keyframe recreates the deleted folder, and recording goes on in a fresh
+    /// folder that starts with a gap record saying why.
+    #[test]
+    fn a_folder_deleted_mid_flight_is_said_once_and_recording_goes_on_in_a_fresh_one() {
+        let root = tempfile::tempdir().unwrap();
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let s = said.clone();
+        let rec = Recorder::start(
+            &settings(root.path(), 1_000),
+            &info(),
+            "",
+            Box::new(move |n| s.lock().unwrap().push(n.text)),
+        )
+        .unwrap();
+        let sink = rec.sink();
+        let image = || KeyframeImage {
+            width_px: 16,
+            height_px: 8,
+            rgb: vec![128; 16 * 8 * 3],
+        };
+        for n in 0..20 {
+            sink.frame(frame(n), (n % 5 == 0).then(image));
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        let first = rec.dir().to_owned();
+        std::fs::remove_dir_all(&first).unwrap();
+        for n in 20..60 {
+            sink.frame(frame(n), (n % 5 == 0).then(image));
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let closed = rec.finish(None).unwrap();
+        assert_eq!(closed.deleted, std::slice::from_ref(&first));
+        assert_eq!(closed.stopped, None);
+        assert!(!first.exists(), "the deleted folder was recreated");
+        let said = said.lock().unwrap().clone();
+        assert_eq!(said.len(), 1, "{said:?}");
+        assert!(said[0].contains("folder deleted"), "{said:?}");
+        let flights = flight::list(root.path());
+        assert_eq!(flights.len(), 1, "{flights:?}");
+        let flight = Flight::load(&flights[0]).unwrap();
+        assert_eq!(flight.gaps.len(), 1, "{:?}", flight.gaps);
+        assert!(
+            flight.gaps[0].reason.contains("deleted"),
+            "{:?}",
+            flight.gaps
+        );
+        assert!(!flight.frames.is_empty());
+        assert!(flight.frames.iter().all(|f| f.frame >= 20));
+        let end = flight.end.as_ref().expect("end record");
+        assert_eq!(end.frames_written, flight.frames.len() as u64);
+        assert!(end.keyframes > 0);
+        let (_, clean) = flight.tlog().unwrap();
+        assert!(clean);
     }
 }

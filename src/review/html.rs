@@ -567,7 +567,7 @@ function chart(parent, opts) {
   const sec = document.getElementById("truth-section");
   sec.hidden = false;
   const box = h("div", { id: "truth" }, document.getElementById("truth-slot"));
-  h("p", {}, box, "Each geolocated report matched to the nearest true object within " + T.radius_m + " m at its frame's time: " + T.matched + " matched, " + T.unmatched + " unmatched" + (T.untimed ? ", " + T.untimed + " without a time in the truth" : "") + ". Over all matched reports: median " + fmt(T.overall.median_m, 2) + " m, p95 " + fmt(T.overall.p95_m, 2) + " m, max " + fmt(T.overall.max_m, 2) + " m.");
+  h("p", {}, box, "Each geolocated report matched to the nearest true object within " + T.radius_m + " m at its frame's time: " + T.matched + " matched, " + T.unmatched + " unmatched" + (T.untimed ? ", " + T.untimed + " without a time in the truth" : "") + (T.retimed ? " (" + T.retimed + " timed by the companion's clock: their autopilot time was missing or ambiguous over a reboot)" : "") + ". Over all matched reports: median " + fmt(T.overall.median_m, 2) + " m, p95 " + fmt(T.overall.p95_m, 2) + " m, max " + fmt(T.overall.max_m, 2) + " m.");
   const t = h("table", { id: "truth-table" }, box);
   const hr = h("tr", {}, t);
   ["True object", "Class", "Tracks", "Reports", "Median (m)", "p95 (m)", "Max (m)"].forEach(function (c) { h("th", {}, hr, c); });

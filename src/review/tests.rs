@@ -233,3 +233,129 @@ fn the_embedded_data_cannot_close_its_script_element() {
     assert!(!page.contains("alert(1)</script>"));
     assert!(!review.flight.clean_end);
 }
+
+/// Issue 39 item 13: a flight over an autopilot reboot (its clock starts again from 0, and
+/// after the reboot its stamps overlap those before it). Every report is timed and matched
+/// (by the clock that survives the reboot where the autopilot's is ambiguous), the object
+/// seen only before the reboot is reported, and a report that cannot be timed at all is
+/// counted.
+#[test]
+fn a_flight_over_an_autopilot_reboot_is_timed_and_matched_throughout() {
+    use crate::record::format::{GeoRecord, TrackRecord};
+    use crate::track::{BBox, TrackOutput, TrackState};
+    use nalgebra::Vector3;
+    let origin = Geodetic::new(47.0, 8.0, 0.0).unwrap();
+    let local = LocalTangentFrame::new(origin);
+    // Boot 10 s before the flight, reboot at 30 s, 45 s in all, 10 fps.
+    let stamp_us = |t: f64| -> u64 {
+        let s = if t < 30.0 { 10.0 + t } else { t - 30.0 };
+        (s * 1e6).round() as u64
+    };
+    // Object 1 is visible for the first 20 s only; object 2 all along.
+    let at = |id: u32, t: f64| -> [f64; 2] {
+        match id {
+            1 => [40.0, 0.5 * t],
+            _ => [-30.0 + 0.8 * t, 20.0],
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut camera = String::from("frame,time_s,frame_stamp_us\n");
+    let mut world = String::from("frame,time_s,id,class,lat_deg,lon_deg\n");
+    let n = 450u64;
+    for k in 0..n {
+        let t = k as f64 / 10.0;
+        camera.push_str(&format!("{},{t:.4},{}\n", k + 1, stamp_us(t)));
+        for id in [1u32, 2] {
+            if id == 1 && t >= 20.0 {
+                continue;
+            }
+            let p = at(id, t);
+            let g = local.to_geodetic(&Vector3::new(p[0], p[1], 0.0));
+            world.push_str(&format!(
+                "{},{t:.4},{id},swimmer,{:.9},{:.9}\n",
+                k + 1,
+                g.lat_deg,
+                g.lon_deg
+            ));
+        }
+    }
+    std::fs::write(dir.path().join("camera.csv"), camera).unwrap();
+    std::fs::write(dir.path().join("world.csv"), world).unwrap();
+    let truth = Truth::load(dir.path()).unwrap();
+
+    let report = |id: u64, p: [f64; 2]| {
+        let g = local.to_geodetic(&Vector3::new(p[0], p[1], 0.0));
+        TrackRecord {
+            track: TrackOutput {
+                id,
+                bbox: BBox {
+                    x: 0.0,
+                    y: 0.0,
+                    w: 10.0,
+                    h: 10.0,
+                },
+                score: 0.9,
+                class_id: 0,
+                state: TrackState::Confirmed,
+                world: None,
+                detection_index: None,
+                provisional: false,
+            },
+            geo: Some(GeoRecord {
+                lat_deg: g.lat_deg,
+                lon_deg: g.lon_deg,
+                alt_m: 0.0,
+                vel_n_mps: 0.0,
+                vel_e_mps: 0.0,
+                h_std_m: 1.0,
+            }),
+        }
+    };
+    // mgmot took every third frame; the autopilot is silent for 2 s over its reboot, so
+    // frames there carry no autopilot time.
+    let unix0 = 1_800_000_000_000_000u64;
+    let mut frames = Vec::new();
+    let mut reports = 0;
+    for k in (0..n).step_by(3) {
+        let t = k as f64 / 10.0;
+        let silent = (30.0..32.0).contains(&t);
+        let mut f = FrameRecord {
+            time_s: t,
+            autopilot_time_us: (!silent).then(|| stamp_us(t)),
+            captured_unix_us: Some(unix0 + (t * 1e6).round() as u64),
+            processed_unix_us: unix0 + (t * 1e6).round() as u64 + 50_000,
+            ..FrameRecord::empty(k, 1280, 720)
+        };
+        if t < 20.0 {
+            f.tracks.push(report(1, at(1, t)));
+        }
+        f.tracks.push(report(2, at(2, t)));
+        reports += f.tracks.len();
+        frames.push(f);
+    }
+    // A frame far outside the truth's run: no time in the truth by either clock.
+    let mut stray = FrameRecord {
+        time_s: 9_000.0,
+        autopilot_time_us: None,
+        captured_unix_us: Some(unix0 + 9_000_000_000),
+        processed_unix_us: unix0 + 9_000_000_000,
+        ..FrameRecord::empty(n + 1, 1280, 720)
+    };
+    stray.tracks.push(report(2, at(2, 44.0)));
+    frames.push(stray);
+    let t_of = |f: &FrameRecord| f.time_s;
+    let r = truth.review(&frames, &Merges::of(&frames), &local, &t_of);
+    assert_eq!(
+        (r.matched, r.unmatched, r.untimed),
+        (reports, 0, 1),
+        "every report timed and matched but the stray one"
+    );
+    assert_eq!(r.objects.len(), 2);
+    assert_eq!(
+        r.objects[0].track_ids,
+        [1],
+        "the object seen before the reboot"
+    );
+    assert_eq!(r.objects[1].track_ids, [2]);
+    assert!(r.overall.max_m < 0.05, "{:?}", r.overall);
+}

@@ -2,7 +2,11 @@
 //! true object, the error of the position reported for it over time.
 //!
 //! `camera.csv` maps the autopilot-clock stamp of each simulated frame (`frame_stamp_us`,
-//! what mgmot records as `autopilot_time_us`) to scenario time; `world.csv` holds every
+//! what mgmot records as `autopilot_time_us`) to scenario time. An autopilot reboot
+//! (`faults.reboots_s`) starts its clock again, so the stamps are split into boot epochs where
+//! they go back, and a stamp found in several epochs (or none, or missing) is told apart by
+//! the companion's clock, which survives the reboot: the frame's UTC time plus the offset to
+//! scenario time of the nearest frame whose stamp is unambiguous. `world.csv` holds every
 //! visible object's true lat/lon per frame. Objects are interpolated in time between the
 //! frames where they were visible. A report is matched to the nearest true object within
 //! [`MATCH_RADIUS_M`] at its frame's time, horizontally, as the simulator's track check does.
@@ -18,6 +22,8 @@ use std::path::Path;
 pub const MATCH_RADIUS_M: f64 = 10.0;
 /// A true object is interpolated at most this far beyond its first and last visible frame (s).
 const EXTEND_S: f64 = 0.25;
+/// The autopilot clock going back by more than this between frames is a reboot (µs).
+const REBOOT_STEP_US: u64 = 1_000_000;
 
 /// One true object's positions over time.
 #[derive(Debug, Clone)]
@@ -30,8 +36,11 @@ struct Object {
 /// The simulator's truth of a run.
 #[derive(Debug, Clone)]
 pub struct Truth {
-    /// (autopilot stamp µs, scenario time s), ascending.
-    stamps: Vec<(u64, f64)>,
+    /// Per boot epoch of the autopilot, in time order: (autopilot stamp µs, scenario time s),
+    /// ascending.
+    epochs: Vec<Vec<(u64, f64)>>,
+    /// The first and last frame's scenario time (s).
+    span: (f64, f64),
     objects: BTreeMap<u32, Object>,
 }
 
@@ -109,8 +118,11 @@ pub struct TruthReview {
     pub matched: usize,
     /// Geolocated reports with no true object within [`MATCH_RADIUS_M`].
     pub unmatched: usize,
-    /// Geolocated reports whose frame has no time in the truth.
+    /// Geolocated reports whose frame has no time in the truth (by neither clock).
     pub untimed: usize,
+    /// Geolocated reports timed by the companion's clock: their frame's autopilot time was
+    /// missing, or ambiguous over an autopilot reboot.
+    pub retimed: usize,
     /// The match radius (m).
     pub radius_m: f64,
 }
@@ -170,9 +182,25 @@ impl Truth {
                 num::<f64>(&camera, n, &r[0])?,
             ));
         }
-        stamps.sort_by_key(|s| s.0);
-        if stamps.is_empty() {
+        // In time order; a reboot starts a new epoch.
+        stamps.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (Some(first), Some(last)) = (stamps.first(), stamps.last()) else {
             return Err(bad(&camera, "no frames"));
+        };
+        let span = (first.1, last.1);
+        let mut epochs: Vec<Vec<(u64, f64)>> = Vec::new();
+        let mut prev: Option<u64> = None;
+        for s in stamps {
+            if prev.is_none_or(|p| s.0.saturating_add(REBOOT_STEP_US) < p) {
+                epochs.push(Vec::new());
+            }
+            prev = Some(s.0);
+            if let Some(e) = epochs.last_mut() {
+                e.push(s);
+            }
+        }
+        for e in &mut epochs {
+            e.sort_by_key(|s| s.0);
         }
         let world = dir.join("world.csv");
         let mut objects: BTreeMap<u32, Object> = BTreeMap::new();
@@ -193,17 +221,26 @@ impl Truth {
         for o in objects.values_mut() {
             o.samples.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        Ok(Self { stamps, objects })
+        Ok(Self {
+            epochs,
+            span,
+            objects,
+        })
     }
 
-    /// Scenario time of an autopilot stamp (linear between the truth's frames, up to a
-    /// second beyond them).
-    fn scenario_time(&self, stamp_us: u64) -> Option<f64> {
-        let i = self.stamps.partition_point(|s| s.0 < stamp_us);
-        let (a, b) = match (
-            i.checked_sub(1).and_then(|j| self.stamps.get(j)),
-            self.stamps.get(i),
-        ) {
+    /// The scenario times an autopilot stamp has: one per boot epoch it falls in.
+    fn scenario_times(&self, stamp_us: u64) -> Vec<f64> {
+        self.epochs
+            .iter()
+            .filter_map(|e| Self::epoch_time(e, stamp_us))
+            .collect()
+    }
+
+    /// Scenario time of an autopilot stamp in one boot epoch (linear between its frames, up to
+    /// a second beyond them).
+    fn epoch_time(stamps: &[(u64, f64)], stamp_us: u64) -> Option<f64> {
+        let i = stamps.partition_point(|s| s.0 < stamp_us);
+        let (a, b) = match (i.checked_sub(1).and_then(|j| stamps.get(j)), stamps.get(i)) {
             (Some(a), Some(b)) => (*a, *b),
             (Some(a), None) => (*a, *a),
             (None, Some(b)) => (*b, *b),
@@ -214,8 +251,66 @@ impl Truth {
         } else {
             a.1 + (stamp_us as f64 - a.0 as f64) / 1e6
         };
-        let (lo, hi) = (self.stamps[0].1, self.stamps[self.stamps.len() - 1].1);
+        let (lo, hi) = stamps
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(s.1), hi.max(s.1))
+            });
         (t >= lo - 1.0 && t <= hi + 1.0).then_some(t)
+    }
+
+    /// Each frame's scenario time, and whether it came from the companion's clock rather
+    /// than the autopilot's stamp. A stamp found in exactly one boot epoch is taken as is;
+    /// those frames anchor the offset from the companion's clock (UTC) to scenario time.
+    /// A stamp found in several epochs takes the one nearest the nearest anchor's offset; a
+    /// frame without a stamp, or whose stamp is in no epoch, takes that offset itself (when
+    /// it lands within the truth's run).
+    fn frame_times(&self, frames: &[FrameRecord]) -> Vec<Option<(f64, bool)>> {
+        let utc_s = |f: &FrameRecord| super::frame_unix_us(f) as f64 / 1e6;
+        let candidates: Vec<Vec<f64>> = frames
+            .iter()
+            .map(|f| {
+                f.autopilot_time_us
+                    .map(|us| self.scenario_times(us))
+                    .unwrap_or_default()
+            })
+            .collect();
+        // (UTC s, scenario minus UTC s), by UTC.
+        let mut anchors: Vec<(f64, f64)> = frames
+            .iter()
+            .zip(&candidates)
+            .filter(|(_, c)| c.len() == 1)
+            .map(|(f, c)| (utc_s(f), c[0] - utc_s(f)))
+            .collect();
+        anchors.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let offset_at = |u: f64| -> Option<f64> {
+            let i = anchors.partition_point(|a| a.0 < u);
+            [i.checked_sub(1), Some(i)]
+                .into_iter()
+                .flatten()
+                .filter_map(|j| anchors.get(j))
+                .min_by(|a, b| (a.0 - u).abs().total_cmp(&(b.0 - u).abs()))
+                .map(|a| a.1)
+        };
+        let (lo, hi) = self.span;
+        frames
+            .iter()
+            .zip(candidates)
+            .map(|(f, c)| {
+                let predicted = offset_at(utc_s(f)).map(|o| utc_s(f) + o);
+                match (c.as_slice(), predicted) {
+                    ([t], _) => Some((*t, false)),
+                    ([], Some(p)) => (p >= lo - 1.0 && p <= hi + 1.0).then_some((p, true)),
+                    ([], None) => None,
+                    (many, Some(p)) => many
+                        .iter()
+                        .copied()
+                        .min_by(|a, b| (a - p).abs().total_cmp(&(b - p).abs()))
+                        .map(|t| (t, true)),
+                    (_, None) => None,
+                }
+            })
+            .collect()
     }
 
     /// An object's position (lat, lon) at scenario time `t`.
@@ -256,8 +351,8 @@ impl Truth {
         };
         let alt0 = local.origin().alt_m;
         let mut per: BTreeMap<u32, (Vec<ErrorSample>, Vec<u64>)> = BTreeMap::new();
-        let (mut matched, mut unmatched, mut untimed) = (0, 0, 0);
-        for f in frames {
+        let (mut matched, mut unmatched, mut untimed, mut retimed) = (0, 0, 0, 0);
+        for (f, time) in frames.iter().zip(self.frame_times(frames)) {
             let geo: Vec<_> = f
                 .tracks
                 .iter()
@@ -266,10 +361,13 @@ impl Truth {
             if geo.is_empty() {
                 continue;
             }
-            let Some(ts) = f.autopilot_time_us.and_then(|us| self.scenario_time(us)) else {
+            let Some((ts, by_companion)) = time else {
                 untimed += geo.len();
                 continue;
             };
+            if by_companion {
+                retimed += geo.len();
+            }
             let truth: Vec<(u32, [f64; 2])> = self
                 .objects
                 .iter()
@@ -340,6 +438,7 @@ impl Truth {
             matched,
             unmatched,
             untimed,
+            retimed,
             radius_m: MATCH_RADIUS_M,
         }
     }

@@ -172,6 +172,33 @@ pub fn mgmot() -> TestCommand {
     TestCommand::new(env!("CARGO_BIN_EXE_mgmot"))
 }
 
+/// The `mgmot` binary of this build, run so that file permissions bind it: as root (a
+/// container, CI) through `capsh` without CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH, so that a
+/// read-only folder or a socket without write permission is refused as it is to the service
+/// user; as anyone else, as is.
+pub fn mgmot_bound_by_permissions() -> TestCommand {
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    if !root {
+        return mgmot();
+    }
+    if Command::new("capsh").arg("--help").output().is_err() {
+        missing_tool("mgmot_bound_by_permissions", "capsh (libcap2-bin)");
+    }
+    let mut c = TestCommand::new("capsh");
+    c.args([
+        "--drop=cap_dac_override,cap_dac_read_search",
+        "--",
+        "-c",
+        "exec \"$0\" \"$@\"",
+        env!("CARGO_BIN_EXE_mgmot"),
+    ]);
+    c
+}
+
 /// The `mgmot-sim` binary ([`sim_bin`]).
 pub fn sim() -> TestCommand {
     TestCommand::new(sim_bin())

@@ -852,6 +852,16 @@ impl LinkTask {
             }
             _ => {}
         }
+        if signed
+            && matches!(
+                message,
+                MavMessage::COMMAND_LONG(_) | MavMessage::COMMAND_INT(_)
+            )
+        {
+            // A signed command is acted on only once its stream's timestamp is on disk: after
+            // a SIGKILL or a power cut right after it, a replay of it is refused.
+            self.persist_signing();
+        }
         self.emit(LinkEvent::Message(Box::new(Received {
             message,
             system_id,
