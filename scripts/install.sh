@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs mgmot as a systemd service (README, "Deployment (systemd service)"), or removes it.
+# Installs mgmot as a systemd service (docs/deployment.md), or removes it.
 #
 #   scripts/install.sh [--prefix DIR] [--no-build] [--binary FILE] [--tract | --ort-lib FILE]
 #                      [--no-system]
@@ -10,7 +10,7 @@
 #   PREFIX/bin/mgmot.debug                    its debug info, for gdb and backtraces
 #   PREFIX/share/mgmot/models/*.onnx          the shipped detector (int8 and fp32)
 #   PREFIX/lib/mgmot/libonnxruntime.so        ONNX Runtime (not with --tract)
-#   PREFIX/share/doc/mgmot/README.md
+#   PREFIX/share/doc/mgmot/README.md, PREFIX/share/doc/mgmot/docs/*.md
 #   /etc/mgmot/mgmot.toml                     the configuration, only if there is none yet
 #   /etc/mgmot/mgmot.example.toml             the shipped example, every key documented
 #   /etc/systemd/system/mgmot.service         the unit
@@ -86,9 +86,9 @@ if [ "$uninstall" = 1 ]; then
     systemctl disable --now mgmot.service 2>/dev/null || true
   fi
   rm -f "$bindir/mgmot" "$bindir/mgmot.debug" "$unitdir/mgmot.service" \
-    "$libdir/libonnxruntime.so" "$docdir/README.md" "$etcdir/mgmot.example.toml"
+    "$libdir/libonnxruntime.so" "$docdir/README.md" "$docdir"/docs/*.md "$etcdir/mgmot.example.toml"
   for m in "${models[@]}"; do rm -f "$sharedir/models/$m"; done
-  rmdir "$sharedir/models" "$sharedir" "$libdir" "$docdir" 2>/dev/null || true
+  rmdir "$sharedir/models" "$sharedir" "$libdir" "$docdir/docs" "$docdir" 2>/dev/null || true
   if [ "$purge" = 1 ]; then
     rm -f "$etcdir/mgmot.toml"
     rmdir "$etcdir" 2>/dev/null || true
@@ -142,6 +142,8 @@ install -m 0755 "$work/mgmot" "$bindir/mgmot"
 install -m 0644 "$work/mgmot.debug" "$bindir/mgmot.debug"
 for m in "${models[@]}"; do install -m 0644 "models/$m" "$sharedir/models/$m"; done
 install -m 0644 README.md "$docdir/README.md"
+install -d -m 0755 "$docdir/docs"
+install -m 0644 docs/*.md "$docdir/docs/"
 if [ "$tract" = 0 ]; then
   install -d -m 0755 "$libdir"
   install -m 0644 "$ort_lib" "$libdir/libonnxruntime.so"

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Diagnostics for long-gap re-identification on simulated sequences.
 
-Two measurements behind the README's "Decide with measurements" items (issue 14):
+Two measurements behind the docs/benchmark.md "Decide with measurements" items (issue 14):
 
 ``size GT_DIR DET``
     Could physical size break ties between swimmers? For every true swimmer (``world.csv``,

@@ -101,7 +101,19 @@ fn install_upgrade_uninstall_and_purge_into_a_destdir() {
         "opt/mgmot/share/doc/mgmot/README.md",
         "opt/mgmot/share/mgmot/models/mgmot-det-fp32.onnx",
         "opt/mgmot/share/mgmot/models/mgmot-det-int8.onnx",
-    ];
+    ]
+    .into_iter()
+    .map(String::from)
+    .collect::<Vec<_>>();
+    // The documents the README links to, beside it.
+    let docs = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap();
+    let docs: Vec<String> = docs
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".md"))
+        .map(|n| format!("opt/mgmot/share/doc/mgmot/docs/{n}"))
+        .collect();
+    assert!(docs.len() >= 5, "{docs:?}");
+    want.extend(docs);
     want.sort();
     assert_eq!(files(&root), want, "{said}");
 

@@ -1,4 +1,4 @@
-//! Regression guard of the tracking benchmark (README, "Tracking benchmark"): every long search
+//! Regression guard of the tracking benchmark (docs/benchmark.md, "Tracking benchmark"): every long search
 //! mission at its own seed, the simulated detector's boxes tracked online (as flown, and with
 //! provisional tracks withheld) and offline by the real binaries, scored by `mgmot eval`. A test fails when IDF1
 //! drops more than [`TOLERANCE`] below the committed table (the default-seed rows of
@@ -132,7 +132,7 @@ struct Committed {
     offline: f64,
 }
 
-// The committed table (README, "Tracking benchmark", seed "default"; the detections carry
+// The committed table (docs/benchmark.md, "Tracking benchmark", seed "default"; the detections carry
 // their colour signatures, `mgmot-sim detections --appearance`, as in the table).
 const MIXED: Committed = Committed {
     online: 0.851,

@@ -25,7 +25,7 @@
 //! largest overlap (where the swap most likely happened: the boxes were hardest to tell
 //! apart). Online the frames between the swap and its repair keep the wrong ids (they were
 //! reported); from the repair on the ids are right. Offline the frames since that peak are
-//! relabelled too. Measured: README, "Contact repair".
+//! relabelled too. Measured: docs/benchmark.md, "Contact repair".
 
 use serde::{Deserialize, Serialize};
 
@@ -40,7 +40,7 @@ pub struct ContactParams {
     /// ([`super::Detection::appearance`]); without them nothing happens.
     pub enabled: bool,
     /// Two tracked boxes overlapping at this IoU or more are in contact (a swap is possible).
-    /// 0.5, measured (12 seeds, README "Contact repair"): the swaps seen happen at IoU 0.6-0.8;
+    /// 0.5, measured (12 seeds, docs/benchmark.md "Contact repair"): the swaps seen happen at IoU 0.6-0.8;
     /// 0.3 gave the same results but for one crossing it left unrepaired (`boats_crossing`
     /// seed 15: the two swimmers stayed near each other after it, so their group of the
     /// earlier, lighter contact never had clean detections to decide on), 0.2 missed a

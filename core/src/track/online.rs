@@ -916,7 +916,7 @@ impl Tracker {
     }
 
     /// A track lost from view goes to the memory bank; one still waiting on a contested ReID
-    /// decision goes there undecided, under its own id (README, "A contested decision waits").
+    /// decision goes there undecided, under its own id (docs/benchmark.md, "A contested decision waits").
     /// A glimpse (lost before its decision was due, while it carried a provisional old id)
     /// does not, under `reid.forget_glimpses`.
     fn mark_lost(&mut self, i: usize) {

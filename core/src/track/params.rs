@@ -122,7 +122,7 @@ pub struct BaselineParams {
     /// from the drone metadata): every track's predicted box is carried by the camera's
     /// motion before the IoU stages, as BoT-SORT carries it by its image registration.
     /// `false` ignores the homography (the box filter then absorbs the camera's motion as
-    /// track velocity). Measured on the benchmark (README, "Metadata camera-motion
+    /// track velocity). Measured on the benchmark (docs/benchmark.md, "Metadata camera-motion
     /// compensation", 4 seeds, online HOTA with -> without): `gimbal_swings` 0.770 -> 0.687,
     /// `expanding_square` 0.695 -> 0.643, `fast_drone` 0.814 -> 0.790; but the simulated
     /// attitude noise (white, 0.1-0.15 deg a sample) makes it cost `lawnmower_search`
@@ -133,13 +133,13 @@ pub struct BaselineParams {
     /// motion and drops the attitude's frame-to-frame noise, snapping to the measurement on
     /// a real jump (see [`AttitudeSmoothing`]). Applied by the caller that builds the
     /// tracker's inputs ([`crate::frame::InputBuilder`], `mgmot track`). Measured on the
-    /// benchmark: README, "Metadata camera-motion compensation".
+    /// benchmark: docs/benchmark.md, "Metadata camera-motion compensation".
     pub cmc_smoothing: AttitudeSmoothing,
     /// Added to the cost of a track and a detection of different classes in the IoU stages
     /// (the track's class is its majority vote), so that a track prefers its own class's
     /// detection when it has one and still takes another class's when it has none (a
     /// detector confuses a swimmer and a life-saving appliance now and then). 0 is
-    /// BoT-SORT's class-blind association. 0.05, measured (README, "Class-aware
+    /// BoT-SORT's class-blind association. 0.05, measured (docs/benchmark.md, "Class-aware
     /// association"): on `swimmer_group` seed 90210 a swimmer's track took a life ring's
     /// first detection beside it (IoU 0.18, a cost just under the 0.9 gate) while its own
     /// swimmer's detection, low in score, waited for the second stage.
@@ -226,7 +226,7 @@ pub struct ClassReidParams {
     /// the colours only gate. Needs `appearance_gate` below 1. Measured at 4 against the gate
     /// alone, 12 seeds (IDF1 over the oracle's): the long missions online 0.935 -> 0.949,
     /// offline 0.997 -> 1.007, but `gimbal_swings` seed 11 online -0.089 and
-    /// `leave_and_return`'s own seed online -0.030, so it is not on by default (README,
+    /// `leave_and_return`'s own seed online -0.030, so it is not on by default (docs/benchmark.md,
     /// "Appearance gate").
     pub appearance_weight_chi2: f64,
 }
@@ -451,7 +451,7 @@ pub struct ReidParams {
     /// the minutes between two legs of a search pattern the current and the leeway also
     /// change, which the drift estimate does not follow, and right pairs fall beyond 9.
     /// 12 from 30 s, measured on 2026-12-04 against 9 for every gap (10 scenarios x 12
-    /// seeds, README "A wider gate after long gaps"): the long missions online IDF1 over
+    /// seeds, docs/benchmark.md "A wider gate after long gaps"): the long missions online IDF1 over
     /// the oracle's 0.946 -> 0.949 (`expanding_square` 0.925 -> 0.932), ids per object
     /// online withheld lower (`sector_search` largest run 1.48 -> 1.39), the short
     /// scenarios unchanged. 12 for every gap cost `gimbal_swings` seed 11 online IDF1
@@ -554,7 +554,7 @@ pub struct OfflineParams {
     /// entry likewise with the average over the chain it starts. Measured on the long
     /// missions x 12 seeds (offline IDF1 over the oracle's): expanding_square 0.924 ->
     /// 0.935, mixed_mission_soak 0.933 -> 0.943, sector_search 0.941 -> 0.947,
-    /// lawnmower_search 0.964 -> 0.964 (README, "Chain velocity"). Online it was tried on
+    /// lawnmower_search 0.964 -> 0.964 (docs/benchmark.md, "Chain velocity"). Online it was tried on
     /// the exits (the id's history) and gained nothing, so online does not use it.
     pub chain_velocity: bool,
     /// Shortest chain span for the chain velocity, s. 30: the swimmers' wobble (a few

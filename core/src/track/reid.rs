@@ -83,7 +83,7 @@ impl ChainPoint {
 /// its chain's last observation). A swimmer's own swimming direction persists for a
 /// minute or more, while the world filter's velocity at an end follows seconds of wobble;
 /// over long gaps the chain's average predicts the displacement better than the drift alone
-/// (README, "Chain velocity").
+/// (docs/benchmark.md, "Chain velocity").
 ///
 /// Applies only to classes adrift (the drift model carries it), and when the chain spans at
 /// least `min_span_s`; otherwise `end` is returned unchanged. The average's uncertainty as
