@@ -60,7 +60,7 @@ export MGMOT_SIM_BIN="$PWD/target/release/mgmot-sim"
 # their real-time budgets on a 2-core machine.
 export RUST_TEST_THREADS=1
 # The fuzz targets (fuzz/README.md, tests/fuzz_decoders.rs) run inside the suite on a million
-# generated inputs each (about 15 s in all; a separate `cargo test --test fuzz_decoders` would
+# generated inputs each (about 15 s in all; a separate `cargo test -p mgmot --test main` would
 # resolve features for one package and rebuild mgmot). The seed comes from the commit, so each
 # commit tries new inputs and a finding is reproducible with the printed seed.
 export MGMOT_FUZZ_CASES=1000000

@@ -1,6 +1,6 @@
 //! `mgmot track` and `mgmot geolocate` run as real processes on the real SeaDronesSee subset.
 
-mod common;
+use crate::common;
 
 use common::{shared_data as data, TestDir};
 
@@ -82,7 +82,10 @@ fn tracks_without_metadata() {
         "--json",
     ]);
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for v in summary["videos"].as_array().unwrap() {
+    let videos = summary["videos"].as_array().unwrap();
+    // The shared subset holds three validation videos: each must be tracked, none skipped.
+    assert_eq!(videos.len(), 3, "{summary}");
+    for v in videos {
         assert_eq!(v["detections_geolocated"], 0);
         assert!(v["tracks"].as_u64().unwrap() > 0);
     }

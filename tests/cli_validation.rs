@@ -3,7 +3,7 @@
 //! numbers from the command line and the tracker parameters are finite and in range, with the
 //! flag or key named in the error.
 
-mod common;
+use crate::common;
 
 use common::{shared_data as real_data, TestDir};
 use std::path::{Path, PathBuf};

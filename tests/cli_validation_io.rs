@@ -6,7 +6,7 @@
 //! Every command runs under a deadline and is killed past it, so that a regression (a read
 //! that blocks on a FIFO, a run that never ends) fails the test instead of hanging it.
 
-mod common;
+use crate::common;
 
 use common::{example_config_here, mgmot, mgmot_run, repo_file, run_config, TestCommand, TestDir};
 use std::ffi::CString;

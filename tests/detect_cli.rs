@@ -6,7 +6,7 @@
 //! (scripts/detect_fetch_onnxruntime.sh prints it; scripts/test.sh sets it):
 //! without it they fail, saying so.
 
-mod common;
+use crate::common;
 
 use common::{mgmot, missing_tool, repo_file, TestDir};
 use std::path::{Path, PathBuf};
@@ -167,13 +167,16 @@ fn onnxruntime_library() -> Result<PathBuf, String> {
 }
 
 /// Every detection of `a` scoring clearly above the threshold has a partner
-/// in `b`: same image and class, box within 1 px, score within `score_tol`.
+/// in `b`: same image and class, box within 1 px, score within `score_tol`. At least one
+/// detection of `a` must be clearly above the threshold, so that something is compared.
 fn assert_covered(a: &[Value], b: &[Value], score_tol: f64, what: &str) {
     let f = |v: &Value| v.as_f64().unwrap();
+    let mut compared = 0;
     for x in a {
         if f(&x["score"]) < 0.25 + score_tol {
             continue; // may fall either side of the threshold
         }
+        compared += 1;
         let ok = b.iter().any(|y| {
             x["image_id"] == y["image_id"]
                 && x["category_id"] == y["category_id"]
@@ -185,6 +188,11 @@ fn assert_covered(a: &[Value], b: &[Value], score_tol: f64, what: &str) {
             "{what}: {x} has no partner within 1 px / {score_tol} in {b:?}"
         );
     }
+    assert!(
+        compared > 0,
+        "{what}: no detection clearly above the threshold, nothing compared ({} in all)",
+        a.len()
+    );
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! `mgmot eval` end to end: output shapes, folder layouts and error messages.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
+
+use crate::common::{mgmot, TestDir};
 
 use serde_json::Value;
 
@@ -31,7 +33,7 @@ const KEYS: [&str; 22] = [
 ];
 
 fn eval(gt: &Path, pred: &Path, extra: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    mgmot()
         .arg("eval")
         .arg("--gt")
         .arg(gt)
@@ -39,7 +41,6 @@ fn eval(gt: &Path, pred: &Path, extra: &[&str]) -> Output {
         .arg(pred)
         .args(extra)
         .output()
-        .unwrap()
 }
 
 fn write(path: &Path, text: &str) {
@@ -54,7 +55,7 @@ const PRED: &str = "1,5,0,0,10,10,0.9,-1,-1,-1\n2,5,0,0,10,10,0.9,-1,-1,-1\n3,6,
 
 #[test]
 fn two_files_give_one_flat_object_with_exactly_the_documented_keys() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, GT);
     write(&pred, PRED);
@@ -78,7 +79,7 @@ fn two_files_give_one_flat_object_with_exactly_the_documented_keys() {
 
 #[test]
 fn table_output_names_the_metrics() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, GT);
     write(&pred, PRED);
@@ -92,7 +93,7 @@ fn table_output_names_the_metrics() {
 
 #[test]
 fn folders_in_both_layouts_give_sequences_and_combined() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let gt = dir.path().join("gt");
     let pred = dir.path().join("pred");
     write(&gt.join("a/gt/gt.txt"), GT);
@@ -120,7 +121,7 @@ fn folders_in_both_layouts_give_sequences_and_combined() {
 
 #[test]
 fn per_class_reports_each_class_and_the_class_combinations() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, "1,1,0,0,10,10,1,1,1\n1,2,50,0,10,10,1,2,1\n");
     write(&pred, "1,1,0,0,10,10,1,1\n1,2,50,0,10,10,1,1\n");
@@ -139,7 +140,7 @@ fn per_class_reports_each_class_and_the_class_combinations() {
 
 #[test]
 fn malformed_line_is_reported_with_file_and_line() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, GT);
     write(&pred, "1,5,0,0,10,10\n2,5,0,0,ten,10\n");
@@ -154,7 +155,7 @@ fn malformed_line_is_reported_with_file_and_line() {
 
 #[test]
 fn duplicate_id_and_frame_beyond_seq_length_are_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, GT);
     write(&pred, "1,5,0,0,10,10\n1,5,3,0,10,10\n");
@@ -178,7 +179,7 @@ fn duplicate_id_and_frame_beyond_seq_length_are_errors() {
 
 #[test]
 fn missing_prediction_sequence_is_named() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let gt = dir.path().join("gt");
     let pred = dir.path().join("pred");
     write(&gt.join("MOT-02/gt/gt.txt"), GT);
@@ -191,7 +192,7 @@ fn missing_prediction_sequence_is_named() {
 
 #[test]
 fn file_and_folder_cannot_be_mixed() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let gt = dir.path().join("gt.txt");
     write(&gt, GT);
     let out = eval(&gt, dir.path(), &[]);
@@ -201,7 +202,7 @@ fn file_and_folder_cannot_be_mixed() {
 
 #[test]
 fn empty_files_evaluate_without_error() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let (gt, pred) = (dir.path().join("gt.txt"), dir.path().join("pred.txt"));
     write(&gt, "");
     write(&pred, "");

@@ -4,7 +4,7 @@
 //! package is missing the test fails and says what to install (scripts/test.sh installs it
 //! into `.venv`): a missing tool never passes as a skip.
 
-mod common;
+use crate::common;
 
 use common::{missing_tool, require_python};
 use std::process::Command;

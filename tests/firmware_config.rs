@@ -5,10 +5,11 @@
 use mgmot::firmware::{check_file, Autopilot, ParamTable, ARDUPILOT_COPTER_TABLE, PX4_TABLE};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+use crate::common::{mgmot, repo_file, TestDir};
 
 fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("firmware-config")
+    repo_file("firmware-config")
 }
 
 fn files_in(dir: &Path) -> Vec<PathBuf> {
@@ -50,8 +51,8 @@ fn px4_files_match_the_px4_table() {
 
 #[test]
 fn a_wrong_file_is_reported_line_by_line() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let ap = dir.path().join("wrong.parm");
+    let dir = TestDir::new();
+    let ap = dir.join("wrong.parm");
     std::fs::write(
         &ap,
         "# wrong on purpose\nSERIAL2_PROTOCOL 2\nSERIAL2_BOUD 921\nSERIAL2_BAUD 921.5\n\
@@ -78,7 +79,7 @@ fn a_wrong_file_is_reported_line_by_line() {
     );
     assert!(got[4].1.contains("does not fit int16"), "{got:?}");
 
-    let px4 = dir.path().join("wrong.params");
+    let px4 = dir.join("wrong.params");
     std::fs::write(
         &px4,
         "1\t1\tMAV_1_CONFIG\t102\t6\n1\t1\tMAV_9_MODE\t2\t6\n1\t1\tMAV_1_RATE\t0.5\t6\n\
@@ -101,11 +102,10 @@ fn a_wrong_file_is_reported_line_by_line() {
     assert!(got[3].starts_with("line 5: MAV_1_MODE:") && got[3].contains("documented values"));
 
     // The command line says the same, as FILE:LINE, and fails.
-    let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+    let out = mgmot()
         .args(["firmware-check", "--autopilot", "ardupilot"])
         .arg(&ap)
-        .output()
-        .expect("run mgmot");
+        .output();
     assert!(!out.status.success());
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -118,11 +118,10 @@ fn a_wrong_file_is_reported_line_by_line() {
 #[test]
 fn the_command_accepts_the_shipped_files() {
     for (autopilot, dir) in [("ardupilot", "ardupilot"), ("px4", "px4")] {
-        let out = Command::new(env!("CARGO_BIN_EXE_mgmot"))
+        let out = mgmot()
             .args(["firmware-check", "--autopilot", autopilot])
             .args(files_in(&root().join(dir)))
-            .output()
-            .expect("run mgmot");
+            .output();
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(
             out.status.success(),

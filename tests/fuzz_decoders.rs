@@ -6,7 +6,7 @@
 //! The target bodies are `fuzz/targets/`, the ones cargo-fuzz runs (see `fuzz/README.md`).
 //! A failing input is written to `<target tmp>/fuzz-findings/<target>/` and printed in hex.
 //!
-//! A long run: `MGMOT_FUZZ_CASES=1000000 cargo test --release --test fuzz_decoders --
+//! A long run: `MGMOT_FUZZ_CASES=1000000 cargo test --release --test main -- fuzz_decoders::
 //! --nocapture`. `MGMOT_FUZZ_SUMMARY=FILE` appends each target's summary line to FILE.
 
 #[path = "../fuzz/targets/mod.rs"]

@@ -14,20 +14,14 @@ use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
+use crate::common::{free_udp_port, TestDir};
+
 const AUTOPILOT: (u8, u8) = (1, 1);
 /// MOUNT_ORIENTATION's id (the message is deprecated in common.xml).
 #[allow(deprecated)]
 const MOUNT_ORIENTATION: u32 = mgmot::mavlink::dialect::MOUNT_ORIENTATION_DATA::ID;
 const GCS: (u8, u8) = (255, 190);
 const KEY: [u8; 32] = [0x5a; 32];
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 fn settings(connection: String) -> LinkSettings {
     LinkSettings {
@@ -311,7 +305,7 @@ fn now_signing() -> u64 {
 /// captured before a restart is refused after it (the state file).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn item4_signing_clock_cannot_be_pushed_and_survives_restarts() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let state = dir.path().join("signing.json");
     let port = free_udp_port();
     let addr: SocketAddr = ([127, 0, 0, 1], port).into();
@@ -412,7 +406,7 @@ async fn item4_signing_clock_cannot_be_pushed_and_survives_restarts() {
 /// restarted link starts from that copy.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn issue39_item11_a_signed_command_is_persisted_before_it_is_acted_on() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     let state = dir.path().join("signing.json");
     let at_kill = dir.path().join("signing-at-kill.json");
     let port = free_udp_port();

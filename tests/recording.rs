@@ -3,7 +3,7 @@
 //! pymavlink, and a run killed with SIGKILL (a record cut short) still replays up to its last
 //! whole frame.
 
-mod common;
+use crate::common;
 
 use common::{free_udp_port, mgmot, mgmot_run, require_python, run_config, Scenario, TestDir};
 use mgmot::record::format::FrameRecord;

@@ -21,6 +21,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use crate::common::{mgmot, TestDir};
+
 const START_US: u64 = 1_796_162_170_000_000;
 const FRAMES: u64 = 60;
 const FPS: f64 = 10.0;
@@ -279,11 +281,7 @@ fn write_flight(dir: &Path, frames: u64, end: bool) -> PathBuf {
 }
 
 fn review(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mgmot"))
-        .arg("review")
-        .args(args)
-        .output()
-        .expect("running mgmot review")
+    mgmot().arg("review").args(args).output()
 }
 
 fn ok(out: &Output) -> String {
@@ -308,7 +306,7 @@ fn chromium_dom(report: &Path) -> (String, String) {
         "chromium is not installed: tests/review.rs opens the report in Debian's headless \
          Chromium (apt-get install chromium; scripts/test.sh installs it)"
     );
-    let profile = tempfile::tempdir().unwrap();
+    let profile = TestDir::new();
     let out = Command::new("timeout")
         .arg("90")
         .arg("chromium")
@@ -378,7 +376,7 @@ fn external_references(html: &str) -> Vec<String> {
 
 #[test]
 fn the_report_is_self_contained_and_chromium_draws_it_without_errors() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let flight = write_flight(tmp.path(), FRAMES, true);
     let report = tmp.path().join("out").join("report.html");
     let stdout = ok(&review(&[
@@ -484,7 +482,7 @@ fn the_report_is_self_contained_and_chromium_draws_it_without_errors() {
 
 #[test]
 fn geojson_and_kml_hold_each_track_with_times_and_its_last_position() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let flight = write_flight(tmp.path(), FRAMES, true);
     let report = tmp.path().join("report.html");
     ok(&review(&[
@@ -587,7 +585,7 @@ print(len(lines), len(points))
 
 #[test]
 fn a_flight_cut_short_and_an_empty_flight_still_get_a_report() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let cut = write_flight(&tmp.path().join("cut"), 30, false);
     // A crash cuts the last line short.
     let mut f = std::fs::OpenOptions::new()
@@ -632,7 +630,7 @@ fn a_flight_cut_short_and_an_empty_flight_still_get_a_report() {
 
 #[test]
 fn a_folder_that_is_no_flight_is_a_clear_error() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let out = review(&[
         tmp.path().to_str().unwrap(),
         "--out",
@@ -684,7 +682,7 @@ fn write_truth(dir: &Path) {
 
 #[test]
 fn with_the_truth_the_report_shows_the_error_per_true_object() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = TestDir::new();
     let flight = write_flight(tmp.path(), FRAMES, true);
     let truth = tmp.path().join("truth");
     write_truth(&truth);

@@ -1,6 +1,6 @@
 //! `mgmot check-config` on the shipped example and on broken files, as a user runs it.
 
-mod common;
+use crate::common;
 
 use common::{example_config_here, example_config_with_detector, mgmot, repo_file, TestDir};
 

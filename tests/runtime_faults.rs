@@ -6,7 +6,7 @@
 //!   instead of exiting 0; the header itself ends the run with exit 0.
 //! - 8: the source freezes (connected, silent): SIGTERM still ends mgmot promptly, exit 0.
 
-mod common;
+use crate::common;
 
 use common::{free_udp_port, mgmot, mgmot_run, run_config, Proc, TestCommand, TestDir};
 use mgmot::camera::sim_framing::{end_of_stream, FrameHeader};

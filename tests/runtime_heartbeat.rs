@@ -3,7 +3,7 @@
 //! `mgmot run` cannot keep are refused by `check-config`, naming the key. Real process, real
 //! UDP socket: the test is the autopilot's end of a `udpout` link.
 
-mod common;
+use crate::common;
 
 use common::{mgmot, mgmot_run, run_config, TestDir};
 use mavlink_core::{MavlinkReader, MavlinkVersion};

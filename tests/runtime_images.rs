@@ -9,7 +9,7 @@
 //!
 //! The simulator binary is `$MGMOT_SIM_BIN`, or `target/debug/mgmot-sim` built here.
 
-mod common;
+use crate::common;
 
 use common::{mgmot_run, run_config, sim, Scenario, TestDir};
 use mavlink_core::{MavlinkReader, MavlinkVersion};

@@ -8,7 +8,7 @@
 //! `cargo build -p mgmot-sim` (tests/common). Frames are made small (640x360) to keep the
 //! debug-build simulator quick; the detections are simulated at the same size.
 
-mod common;
+use crate::common;
 
 use common::{
     distance_m, free_udp_port, mgmot_run, read_truth, run_config, track_time_ms, Proc, Relay,

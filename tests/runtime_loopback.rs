@@ -12,7 +12,7 @@
 //! at a reduced frame size where the pixels are not looked at, to keep the suite within the CI
 //! budget on a 2-core machine.
 
-mod common;
+use crate::common;
 
 use common::{
     distance_m, free_udp_port, mgmot_run, read_truth, run_config, track_time_ms, Relay, Scenario,
@@ -24,7 +24,7 @@ use mgmot::mavlink::dialect::{
     MavMessage, MavType, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
 };
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitStatus;
 use std::time::Duration;
 
@@ -33,9 +33,10 @@ use std::time::Duration;
 enum Det {
     /// The simulator's detections of the same scenario, replayed by frame.
     Replay,
-    /// The shipped fp32 model on rendered frames: on ONNX Runtime where `ORT_DYLIB_PATH`
-    /// names it, else on tract (pure Rust: runs anywhere).
-    Onnx,
+    /// The shipped fp32 model on rendered frames, on the named backend. ONNX Runtime must be
+    /// where `ORT_DYLIB_PATH` names it (`scripts/test.sh` fetches it); a case that names it
+    /// fails when it is missing, rather than running on tract under its name.
+    Onnx(BackendKind),
 }
 
 /// One loopback run.
@@ -88,26 +89,28 @@ fn write_config(dir: &TestDir, mgmot_port: u16, spec: &Spec) -> PathBuf {
     };
     *wait_for_detector = !realtime;
     c.telemetry.gimbal_report = spec.gimbal_report;
-    if detector == Det::Onnx {
+    if let Det::Onnx(backend) = detector {
         // The fp32 model: tract and ONNX Runtime give the same detections with it (parity test
-        // in tests/detect_cli.rs), ONNX Runtime about 3.5x faster, where ORT_DYLIB_PATH names it
-        // (scripts/test.sh fetches it).
+        // in tests/detect_cli.rs), ONNX Runtime about 3.5x faster.
         let mut onnx: OnnxDetectorConfig =
             toml::from_str("model = \"\"").expect("the ONNX detector's defaults");
         onnx.model = common::repo_file("models/mgmot-det-fp32.onnx");
-        onnx.backend = if onnxruntime_available() {
-            BackendKind::OnnxRuntime
-        } else {
-            BackendKind::Tract
-        };
+        onnx.backend = backend;
+        if backend == BackendKind::OnnxRuntime {
+            let lib = std::env::var_os("ORT_DYLIB_PATH")
+                .map(PathBuf::from)
+                .filter(|p| p.is_file())
+                .unwrap_or_else(|| {
+                    common::missing_tool(
+                        "runtime_loopback (ONNX Runtime cases)",
+                        "ORT_DYLIB_PATH naming libonnxruntime.so (scripts/detect_fetch_onnxruntime.sh)",
+                    )
+                });
+            onnx.ort_library = Some(lib);
+        }
         c.detector = DetectorConfig::Onnx(onnx);
     }
     dir.write_config("run.toml", &c)
-}
-
-/// Whether `ORT_DYLIB_PATH` names an ONNX Runtime library (mgmot then uses it).
-fn onnxruntime_available() -> bool {
-    std::env::var_os("ORT_DYLIB_PATH").is_some_and(|p| Path::new(&p).is_file())
 }
 
 /// Runs the simulator and `mgmot run` to the end of the scenario.
@@ -383,7 +386,8 @@ fn calm_baseline_tracks_and_geolocation_error() {
 fn onnx_detector_on_rendered_frames_calm_baseline() {
     let o = run_loopback(&Spec {
         scenario: Scenario::new("calm_baseline", 10.0),
-        detector: Det::Onnx,
+        // tract: the backend that needs nothing installed, `mgmot run`'s default.
+        detector: Det::Onnx(BackendKind::Tract),
         realtime: true,
         gimbal_report: GimbalReport::AsFlagged,
     });
@@ -421,7 +425,7 @@ fn onnx_detector_on_rendered_frames_calm_baseline() {
 fn ids_survive_gimbal_swings() {
     let o = run_loopback(&Spec {
         scenario: Scenario::new("gimbal_swings", 20.0),
-        detector: Det::Onnx,
+        detector: Det::Onnx(BackendKind::OnnxRuntime),
         realtime: true,
         gimbal_report: GimbalReport::AsFlagged,
     });
@@ -443,7 +447,7 @@ fn ids_survive_gimbal_swings() {
 fn ids_survive_leave_and_return() {
     let o = run_loopback(&Spec {
         scenario: Scenario::new("leave_and_return", 32.0),
-        detector: Det::Onnx,
+        detector: Det::Onnx(BackendKind::OnnxRuntime),
         realtime: true,
         gimbal_report: GimbalReport::AsFlagged,
     });

@@ -2,7 +2,7 @@
 //! Needs python3 with pymavlink (scripts/requirements-test.txt; scripts/test.sh installs it
 //! into `.venv`); fails, naming what is missing, if it is not there.
 
-mod common;
+use crate::common;
 
 use common::{repo_file, require_python, TestCommand, TestDir};
 use mavlink_core::{MavHeader, MavlinkVersion};

@@ -4,7 +4,7 @@
 //! configuration, `--uninstall` (keeps configuration and flight data) and `--purge`. And the
 //! detector under the unit's `MemoryDenyWriteExecute=`.
 
-mod common;
+use crate::common;
 
 use common::{missing_tool, repo_file, TestCommand, TestDir};
 use std::os::unix::fs::PermissionsExt;

@@ -8,7 +8,7 @@
 //!   simulator is stopped (SIGSTOP: no frames), again after SIGCONT;
 //! - `STOPPING=1` on SIGTERM, exit 0.
 
-mod common;
+use crate::common;
 
 use common::{free_udp_port, repo_file, run_config, Proc, Scenario, TestCommand, TestDir};
 use mgmot::config::{Config, FramesConfig};

@@ -4,7 +4,7 @@
 //! drops more than [`TOLERANCE`] below the committed table (the default-seed rows of
 //! `scripts/bench_tracking.sh`). The identity oracle (`mgmot oracle`) is printed beside.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

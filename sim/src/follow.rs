@@ -9,9 +9,9 @@
 
 use crate::motion::{wrap_360, DroneState};
 use crate::world::World;
-use mgmot::mavlink::dialect::GimbalDeviceFlags;
 use mgmot_core::geo::attitude::{camera_from_gimbal_quaternion, camera_to_ypr_rad, GimbalYawFrame};
 use mgmot_core::geo::{CameraPose, Geodetic, LocalTangentFrame};
+use mgmot_wire::dialect::GimbalDeviceFlags;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::collections::VecDeque;
 

@@ -10,10 +10,8 @@
 //! the swimmer nearest to it.
 
 use crate::world::World;
-use mgmot::mavlink::dialect::{
-    MgmotObjectClass, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA,
-};
 use mgmot_core::geo::{GeoError, Geodetic, LocalTangentFrame};
+use mgmot_wire::dialect::{MgmotObjectClass, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};

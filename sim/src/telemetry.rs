@@ -8,11 +8,11 @@ use crate::world::{World, REBOOT_SILENCE_S};
 // MOUNT_ORIENTATION is deprecated in common.xml but still what many gimbal drivers and
 // ground stations read; the simulator sends it alongside the gimbal protocol v2 message.
 use mavlink::Message;
-use mgmot::mavlink::dialect::{
+use mgmot_wire::dialect::{
     GimbalDeviceFlags, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType,
 };
 #[allow(deprecated)]
-use mgmot::mavlink::dialect::{
+use mgmot_wire::dialect::{
     MavMessage, ATTITUDE_DATA, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
     GIMBAL_DEVICE_ATTITUDE_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,
     HOME_POSITION_DATA, MOUNT_ORIENTATION_DATA, SYSTEM_TIME_DATA, TIMESYNC_DATA,

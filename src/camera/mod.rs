@@ -12,7 +12,7 @@
 pub mod decode;
 mod images;
 mod reconnect;
-pub mod sim_framing;
+pub use mgmot_wire::sim_framing;
 mod sim_socket;
 mod v4l2;
 

@@ -8,7 +8,7 @@
 mod address;
 pub mod bridge;
 mod decode;
-pub mod dialect;
+pub use mgmot_wire::dialect;
 mod encode;
 pub mod link;
 pub mod signing;

@@ -15,12 +15,9 @@
 //!   positions on the sea;
 //! - [`missing_tool`]: the failure of a cross-check whose outside tool is not installed.
 //!
-//! Each test file is its own crate and uses a part of this, hence the `dead_code` allowance.
-#![allow(dead_code)]
 
 mod relay;
 
-#[allow(unused_imports)] // not every test crate uses the relay
 pub use relay::{Relay, Sent};
 
 use mgmot::config::{Config, DetectorConfig, FramesConfig};

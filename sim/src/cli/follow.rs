@@ -13,10 +13,6 @@ use super::render::TruthWriter;
 use super::ScenarioArgs;
 use anyhow::Context;
 use mavlink::{MavConnection, MavHeader, MavlinkVersion};
-use mgmot::mavlink::dialect::{
-    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavType, COMMAND_LONG_DATA,
-    HEARTBEAT_DATA, MGMOT_TRACK_DATA,
-};
 use mgmot_core::geo::Geodetic;
 use mgmot_sim::follow::{
     gimbal_yaw_frame, horizontal_distance_m, place_world, quaternion_wxyz, vehicle_attitude,
@@ -27,6 +23,10 @@ use mgmot_sim::monitor::TrackMonitor;
 use mgmot_sim::render::Renderer;
 use mgmot_sim::truth::{frame_truth_posed, Optics};
 use mgmot_sim::world::World;
+use mgmot_wire::dialect::{
+    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavType, COMMAND_LONG_DATA,
+    HEARTBEAT_DATA, MGMOT_TRACK_DATA,
+};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};

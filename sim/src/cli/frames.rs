@@ -65,7 +65,7 @@ impl FrameSink {
     pub fn finish(&mut self) {
         if let FrameSink::Unix(s) = self {
             if let Some(client) = s.client.as_mut() {
-                let end = mgmot::camera::sim_framing::end_of_stream();
+                let end = mgmot_wire::sim_framing::end_of_stream();
                 if let Err(e) = client.write_all(&end).and_then(|()| client.flush()) {
                     tracing::debug!(error = %e, "end-of-stream header not delivered");
                 }

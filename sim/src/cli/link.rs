@@ -3,11 +3,11 @@
 //! goes away. Never panics on network errors; they are logged.
 
 use mavlink::{MavConnection, MavHeader, MavlinkVersion};
-use mgmot::mavlink::dialect::MavMessage;
 use mgmot_sim::monitor::{TrackCheck, TrackMonitor};
 use mgmot_sim::scenario::AutopilotKind;
 use mgmot_sim::telemetry::{Autopilot, Reply, Scheduler, Sender};
 use mgmot_sim::world::World;
+use mgmot_wire::dialect::MavMessage;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex, OnceLock};

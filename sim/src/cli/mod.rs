@@ -102,10 +102,26 @@ impl ScenarioArgs {
     }
 }
 
+/// Logs to stderr: `RUST_LOG` when set, else info, debug with `-v`, trace with `-vv`.
+fn init_logging(verbose: u8) {
+    let level = match verbose {
+        0 => "info",
+        1 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    // Fails only when a subscriber is already installed, which then keeps logging.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
 /// Parses the command line, sets up logging and runs the chosen subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    mgmot::logging::init(tracing::Level::INFO, cli.verbose);
+    init_logging(cli.verbose);
     let result = match cli.command {
         Command::List(a) => list::run(a),
         Command::Run(a) => run::run(a),

@@ -1,5 +1,5 @@
 //! The standard MAVLink definitions kept beside `firmware-config/mavlink/mgmot.xml` (which
-//! build.rs generates the dialect from) must be the ones of the `mavlink` package in use:
+//! this crate's build.rs generates the dialect from) must be the ones of the `mavlink` package in use:
 //! the messages the `mavlink` crate decodes and the ones mgmot's dialect decodes then agree.
 //! When the crate is upgraded, this test names every file to copy again.
 
@@ -26,7 +26,8 @@ const KEPT: &[&str] = &[
 /// The `mavlink` package's source directory, as cargo resolved it for this build's target.
 fn mavlink_package_dir() -> PathBuf {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
+    // The workspace's manifest: the `mavlink` package is resolved for the whole workspace.
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("../Cargo.toml");
     // The test binary was built, so every package of this target is on disk: no network.
     let output = Command::new(cargo)
         .args(["metadata", "--format-version", "1", "--offline"])
@@ -56,7 +57,7 @@ fn mavlink_package_dir() -> PathBuf {
 #[test]
 fn kept_standard_definitions_match_the_mavlink_package() {
     let package = mavlink_package_dir().join(DEFINITIONS_IN_PACKAGE);
-    let kept = Path::new(env!("CARGO_MANIFEST_DIR")).join("firmware-config/mavlink");
+    let kept = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware-config/mavlink");
     let mut drifted = Vec::new();
     for name in KEPT {
         let ours = std::fs::read(kept.join(name)).expect("kept definition file");
@@ -76,7 +77,7 @@ fn kept_standard_definitions_match_the_mavlink_package() {
 fn kept_files_are_the_whole_include_closure_of_the_dialect() {
     // Every <include> of the dialect and of the kept files is itself kept, and nothing more,
     // so the build never needs a file from elsewhere and no stale copy lingers.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("firmware-config/mavlink");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware-config/mavlink");
     let mut seen = std::collections::BTreeSet::new();
     let mut todo = vec!["mgmot.xml".to_owned()];
     while let Some(name) = todo.pop() {

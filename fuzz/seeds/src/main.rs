@@ -2,7 +2,7 @@
 //! simulator and the test fixtures:
 //!
 //! ```sh
-//! cargo run -p mgmot-sim --example fuzz_seeds -- fuzz/corpus
+//! cargo run --release -p mgmot-fuzz-seeds -- fuzz/corpus
 //! ```
 //!
 //! - `mavlink_frames`: MAVLink 2 frames of every telemetry stream the simulated autopilot
@@ -25,7 +25,7 @@ use mgmot::frame::GeoFix;
 use mgmot::mavlink::dialect::{
     MavCmd, MavMessage, COMMAND_INT_DATA, COMMAND_LONG_DATA, MOUNT_STATUS_DATA, TIMESYNC_DATA,
 };
-use mgmot::mavlink::{self as link, AckResult, Severity};
+use mgmot::mavlink::{self as mav, AckResult, Severity};
 use mgmot::report::TrackReport;
 use mgmot_core::telemetry::AutopilotTimeUs;
 use mgmot_sim::detections::{detect, mot_det_lines};
@@ -60,7 +60,8 @@ fn main() -> anyhow::Result<()> {
         .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("fuzz/corpus"));
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    // The repository root (this package is fuzz/seeds/).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut w = Writer::new(&out)?;
     mavlink(&mut w)?;
     framing(&mut w)?;
@@ -234,7 +235,7 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
         1,
         1,
     ));
-    let ours = link::COMPONENT_ID;
+    let ours = mav::COMPONENT_ID;
     let gcs = [
         command_long(
             MavCmd::MAV_CMD_CAMERA_TRACK_POINT,
@@ -287,23 +288,23 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
         }),
         provisional: false,
     };
-    messages.push((link::heartbeat(), 1, ours));
+    messages.push((mav::heartbeat(), 1, ours));
     // A short text and a long one in chunks (id, chunk_seq).
     for text in [
         "mgmot: no telemetry",
         "mgmot: recording stopped: Input/output error (os error 5), the flight goes on",
     ] {
         let id = std::num::NonZeroU16::MIN;
-        for m in link::statustext(Severity::Warning, text, id) {
+        for m in mav::statustext(Severity::Warning, text, id) {
             messages.push((m, 1, ours));
         }
     }
-    messages.push((link::mgmot_track(&report), 1, ours));
-    if let Some(m) = link::target_absolute(&report) {
+    messages.push((mav::mgmot_track(&report), 1, ours));
+    if let Some(m) = mav::target_absolute(&report) {
         messages.push((m, 1, ours));
     }
     messages.push((
-        link::command_ack(
+        mav::command_ack(
             MavCmd::MAV_CMD_CAMERA_TRACK_POINT,
             AckResult::Accepted,
             255,
@@ -312,7 +313,7 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
         1,
         ours,
     ));
-    messages.push((link::camera_information(1000, Some((1280, 720))), 1, ours));
+    messages.push((mav::camera_information(1000, Some((1280, 720))), 1, ours));
 
     let mut ts = 1u64 << 46;
     let mut all_frames = Vec::new();

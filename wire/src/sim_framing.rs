@@ -1,5 +1,5 @@
 //! The simulator's frame-stream framing, shared by its writer (`mgmot-sim run --frames
-//! unix:PATH`) and the runtime's reader ([`super::SimSocketSource`]), so the two ends cannot
+//! unix:PATH`) and the runtime's reader (`mgmot::camera::SimSocketSource`), so the two ends cannot
 //! drift apart. Documented in `sim/README.md`.
 //!
 //! Every frame is a fixed 40-byte little-endian header followed by `payload_len` bytes of

@@ -5,7 +5,7 @@
 //! The dialect includes `common.xml`, `development.xml` and `ardupilotmega.xml`. Those standard
 //! definitions (and what they include) are kept beside `mgmot.xml` in this repository, copied
 //! unchanged from the `mavlink` crate's package at the version pinned in Cargo.toml
-//! (`firmware-config/mavlink/README.md` lists them; `tests/mavlink_definitions.rs` fails if they
+//! (`firmware-config/mavlink/README.md` lists them; `wire/tests/definitions.rs` fails if they
 //! drift from the package in use). The build therefore reads only files of this package: it
 //! does not depend on which packages happen to be in the local cargo registry and never runs
 //! cargo or touches the network. `MGMOT_MAVLINK_DEFINITIONS` (a directory with `common.xml`
@@ -13,8 +13,8 @@
 
 use std::path::{Path, PathBuf};
 
-/// The dialect, relative to the package root.
-const DIALECT_XML: &str = "firmware-config/mavlink/mgmot.xml";
+/// The dialect, relative to this package's root (the repository's `firmware-config/`).
+const DIALECT_XML: &str = "../firmware-config/mavlink/mgmot.xml";
 
 /// The standard definitions the dialect includes, directly or through another file; kept beside
 /// the dialect.
@@ -61,7 +61,7 @@ fn generate() -> Result<(), String> {
     // that this crate does not have (they stay off here); declare them so they are expected.
     println!("cargo::rustc-check-cfg=cfg(feature, values(\"serde\", \"arbitrary\", \"ts-rs\"))");
     println!("cargo:rerun-if-env-changed=MGMOT_MAVLINK_DEFINITIONS");
-    // tests/mavlink_definitions.rs asks cargo where the `mavlink` package of this target is.
+    // tests/definitions.rs asks cargo where the `mavlink` package of this target is.
     println!("cargo:rustc-env=MGMOT_BUILD_TARGET={}", env("TARGET")?);
 
     let standard = match std::env::var_os("MGMOT_MAVLINK_DEFINITIONS") {
@@ -94,7 +94,7 @@ fn generate() -> Result<(), String> {
     )
     .map_err(|e| format!("{}: {e}", dialect.display()))?;
     // The generated module starts with inner attributes, so it has to be a module file of its
-    // own: this declaration is `include!`d by src/mavlink/mod.rs and names it.
+    // own: this declaration is `include!`d by src/dialect.rs and names it.
     let declaration = bindings_dir.join("declare.rs");
     std::fs::write(&declaration, DECLARATION)
         .map_err(|e| format!("{}: {e}", declaration.display()))?;
