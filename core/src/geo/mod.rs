@@ -1,6 +1,7 @@
 //! Geometry: the camera model of the MG-MOT paper (Sec. 3.1) and the frames around it.
 //!
-//! Pure and synchronous: no IO, no global state. Conventions (see `ARCHITECTURE.md`):
+//! Pure and synchronous: no IO, no global state. Conventions (those of the project's design
+//! notes, stated here in full):
 //!
 //! - **World**: local NED metres ([`LocalTangentFrame`]) around a reference origin; WGS84
 //!   ([`Geodetic`]) only at the edges. The sea surface is the plane `down = SeaPlane::down_m`.

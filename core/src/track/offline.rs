@@ -8,13 +8,13 @@ use serde::{Deserialize, Serialize};
 use super::appearance::{Appearance, AppearanceMean};
 use super::bbox::BBox;
 use super::drift::SeaDrift;
+use super::error::TrackError;
 use super::online::{add_vote, majority_class, track_end, Tracker};
 use super::params::ReidParams;
 use super::params::TrackerParams;
 use super::reid::{associate_exits_to_entries_where, with_chain_velocity, ChainPoint, TrackEnd};
 use super::types::{ExchangeEvent, FrameInput};
 use super::world::WorldState;
-use super::TrackError;
 
 /// One track box in one frame of the offline result.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::contact::ContactParams;
 use super::drift::DriftParams;
-use super::TrackError;
+use super::error::TrackError;
 use crate::geo::AttitudeSmoothing;
 
 /// Every parameter of the tracker (baseline, MG-MOT ReID, offline post-processing).
@@ -684,248 +684,289 @@ fn unit(v: f64) -> bool {
 }
 
 impl TrackerParams {
-    /// Checks every value: finite, and within its meaningful range (see [`limits`] for the
-    /// bounds that are not natural ones). The error names the field by its path
-    /// (`reid.classes.2.tau_match_m`).
+    /// Checks every value: finite, and within its meaningful range (the `limits` module in
+    /// `params.rs` holds the bounds that are not natural ones). The error names the field by
+    /// its path (`reid.classes.2.tau_match_m`).
     pub fn validate(&self) -> Result<(), TrackError> {
-        let b = &self.baseline;
-        check(
-            unit(f64::from(b.track_low_thresh)),
-            "baseline.track_low_thresh",
-            "in [0, 1]",
-        )?;
-        check(
-            unit(f64::from(b.track_high_thresh)) && b.track_high_thresh >= b.track_low_thresh,
-            "baseline.track_high_thresh",
-            "in [track_low_thresh, 1]",
-        )?;
-        check(
-            unit(f64::from(b.new_track_thresh)),
-            "baseline.new_track_thresh",
-            "in [0, 1]",
-        )?;
-        check(
-            (1..=limits::FRAMES).contains(&b.track_buffer_frames),
-            "baseline.track_buffer_frames",
-            &format!("in [1, {}]", limits::FRAMES),
-        )?;
-        check(
-            b.coast_frames <= limits::FRAMES,
-            "baseline.coast_frames",
-            &format!("in [0, {}]", limits::FRAMES),
-        )?;
-        check(unit(b.match_thresh), "baseline.match_thresh", "in [0, 1]")?;
-        check(
-            unit(b.second_match_thresh),
-            "baseline.second_match_thresh",
-            "in [0, 1]",
-        )?;
-        check(
-            unit(b.unconfirmed_match_thresh),
-            "baseline.unconfirmed_match_thresh",
-            "in [0, 1]",
-        )?;
-        check(
-            unit(b.duplicate_iou_dist),
-            "baseline.duplicate_iou_dist",
-            "in [0, 1]",
-        )?;
-        if let Some(t) = b.nms_iou_threshold {
-            check(unit(t), "baseline.nms_iou_threshold", "in [0, 1]")?;
-        }
-        if let Some(g) = b.world_gate_chi2 {
-            check_positive(g, limits::CHI2, "baseline.world_gate_chi2")?;
-        }
-        check_range(
-            b.world_accel_std_m_s2,
-            0.0,
-            limits::WORLD_ACCEL_STD_M_S2,
-            "baseline.world_accel_std_m_s2",
-        )?;
-        check(
-            unit(b.class_mismatch_cost),
-            "baseline.class_mismatch_cost",
-            "in [0, 1]",
-        )?;
-        if let Some((name, requirement)) = b.cmc_smoothing.invalid() {
-            check(
-                false,
-                &format!("baseline.cmc_smoothing.{name}"),
-                requirement,
-            )?;
-        }
-        let r = &self.reid;
-        check(
-            (1..=limits::WINDOW_FRAMES).contains(&r.window_frames),
-            "reid.window_frames",
-            &format!("in [1, {}]", limits::WINDOW_FRAMES),
-        )?;
-        check(
-            r.exit_border_fraction.is_finite() && (0.0..0.5).contains(&r.exit_border_fraction),
-            "reid.exit_border_fraction",
-            "in [0, 0.5)",
-        )?;
-        check_positive(r.memory_max_s, limits::MEMORY_MAX_S, "reid.memory_max_s")?;
-        check_positive(r.gate_chi2, limits::CHI2, "reid.gate_chi2")?;
-        check_range(r.long_gap_s, 0.0, limits::MEMORY_MAX_S, "reid.long_gap_s")?;
-        check_positive(
-            r.long_gap_gate_chi2,
-            limits::CHI2,
-            "reid.long_gap_gate_chi2",
-        )?;
-        check(
-            (1..=limits::WINDOW_FRAMES).contains(&r.appearance_min_count),
-            "reid.appearance_min_count",
-            &format!("in [1, {}]", limits::WINDOW_FRAMES),
-        )?;
-        check_range(
-            r.defer_margin_chi2,
-            0.0,
-            limits::CHI2,
-            "reid.defer_margin_chi2",
-        )?;
-        check(
-            r.defer_max_frames <= limits::WINDOW_FRAMES,
-            "reid.defer_max_frames",
-            &format!("in [0, {}]", limits::WINDOW_FRAMES),
-        )?;
-        check_positive(
-            r.drift.time_constant_s,
-            limits::MEMORY_MAX_S,
-            "reid.drift.time_constant_s",
-        )?;
-        check_range(
-            r.drift.min_sample_s,
-            0.0,
-            limits::MEMORY_MAX_S,
-            "reid.drift.min_sample_s",
-        )?;
-        check_positive(
-            r.drift.max_vel_std_m_s,
-            limits::SPEED_M_S,
-            "reid.drift.max_vel_std_m_s",
-        )?;
-        let classes = r
-            .classes
-            .iter()
-            .map(|(id, c)| (format!("reid.classes.{id}"), c))
-            .chain(std::iter::once((
-                "reid.default_class".to_owned(),
-                &r.default_class,
-            )));
-        for (path, c) in classes {
-            check_positive(
-                c.tau_match_m,
-                limits::GATE_M,
-                &format!("{path}.tau_match_m"),
-            )?;
-            check_range(
-                c.tau_memory_s,
-                0.0,
-                limits::TAU_MEMORY_S,
-                &format!("{path}.tau_memory_s"),
-            )?;
-            check_range(
-                c.lambda_per_s,
-                0.0,
-                limits::LAMBDA_PER_S,
-                &format!("{path}.lambda_per_s"),
-            )?;
-            check_range(
-                c.max_gate_m,
-                c.tau_match_m,
-                limits::GATE_M,
-                &format!("{path}.max_gate_m"),
-            )?;
-            check_range(
-                c.diffusion_m2_s,
-                0.0,
-                limits::DIFFUSION_M2_S,
-                &format!("{path}.diffusion_m2_s"),
-            )?;
-            check_range(
-                c.view_bias_m,
-                0.0,
-                limits::GATE_M,
-                &format!("{path}.view_bias_m"),
-            )?;
-            check_range(
-                c.appearance_gate,
-                0.0,
-                1.0,
-                &format!("{path}.appearance_gate"),
-            )?;
-            check_range(
-                c.appearance_weight_chi2,
-                0.0,
-                limits::CHI2,
-                &format!("{path}.appearance_weight_chi2"),
-            )?;
-            check_range(
-                c.own_speed_std_m_s,
-                0.0,
-                limits::SPEED_M_S,
-                &format!("{path}.own_speed_std_m_s"),
-            )?;
-            check_range(
-                c.own_motion_s,
-                0.0,
-                limits::TAU_MEMORY_S,
-                &format!("{path}.own_motion_s"),
-            )?;
-        }
-        check(
-            (1..=limits::WINDOW_FRAMES).contains(&self.offline.entry_window_frames),
-            "offline.entry_window_frames",
-            &format!("in [1, {}]", limits::WINDOW_FRAMES),
-        )?;
-        check(
-            (1..=limits::FRAMES).contains(&self.offline.track_buffer_frames),
-            "offline.track_buffer_frames",
-            &format!("in [1, {}]", limits::FRAMES),
-        )?;
-        check_positive(self.offline.gate_chi2, limits::CHI2, "offline.gate_chi2")?;
-        check_positive(
-            self.offline.chain_velocity_min_s,
-            limits::MEMORY_MAX_S,
-            "offline.chain_velocity_min_s",
-        )?;
-        check(
-            self.offline.weak_class_max_detections <= limits::WINDOW_FRAMES,
-            "offline.weak_class_max_detections",
-            &format!("in [0, {}]", limits::WINDOW_FRAMES),
-        )?;
-        check(
-            (0.0..=1.0).contains(&self.offline.scant_appearance_gate),
-            "offline.scant_appearance_gate",
-            "in [0, 1]",
-        )?;
-        let c = &self.contact;
-        for (v, name) in [
-            (c.contact_iou, "contact.contact_iou"),
-            (c.clean_iou, "contact.clean_iou"),
-        ] {
-            check(v > 0.0 && v <= 1.0, name, "in (0, 1]")?;
-        }
-        check(unit(c.margin), "contact.margin", "in [0, 1]")?;
-        for (v, name) in [
-            (c.anchor_min_count, "contact.anchor_min_count"),
-            (c.post_count, "contact.post_count"),
-            (c.partner_min_count, "contact.partner_min_count"),
-        ] {
-            check(
-                (1..=limits::WINDOW_FRAMES).contains(&v),
-                name,
-                &format!("in [1, {}]", limits::WINDOW_FRAMES),
-            )?;
-        }
-        check(
-            self.offline.interp_max_gap_frames <= limits::FRAMES,
-            "offline.interp_max_gap_frames",
-            &format!("in [0, {}]", limits::FRAMES),
-        )?;
-        Ok(())
+        validate_baseline(&self.baseline)?;
+        validate_reid(&self.reid)?;
+        validate_offline(&self.offline)?;
+        validate_contact(&self.contact)?;
+        // `offline.interp_max_gap_frames` comes after the contact section: when several values
+        // are wrong, the error names the first one in this order.
+        validate_interpolation(&self.offline)
     }
+}
+
+/// The `baseline` section.
+fn validate_baseline(b: &BaselineParams) -> Result<(), TrackError> {
+    check(
+        unit(f64::from(b.track_low_thresh)),
+        "baseline.track_low_thresh",
+        "in [0, 1]",
+    )?;
+    check(
+        unit(f64::from(b.track_high_thresh)) && b.track_high_thresh >= b.track_low_thresh,
+        "baseline.track_high_thresh",
+        "in [track_low_thresh, 1]",
+    )?;
+    check(
+        unit(f64::from(b.new_track_thresh)),
+        "baseline.new_track_thresh",
+        "in [0, 1]",
+    )?;
+    check(
+        (1..=limits::FRAMES).contains(&b.track_buffer_frames),
+        "baseline.track_buffer_frames",
+        &format!("in [1, {}]", limits::FRAMES),
+    )?;
+    check(
+        b.coast_frames <= limits::FRAMES,
+        "baseline.coast_frames",
+        &format!("in [0, {}]", limits::FRAMES),
+    )?;
+    check(unit(b.match_thresh), "baseline.match_thresh", "in [0, 1]")?;
+    check(
+        unit(b.second_match_thresh),
+        "baseline.second_match_thresh",
+        "in [0, 1]",
+    )?;
+    check(
+        unit(b.unconfirmed_match_thresh),
+        "baseline.unconfirmed_match_thresh",
+        "in [0, 1]",
+    )?;
+    check(
+        unit(b.duplicate_iou_dist),
+        "baseline.duplicate_iou_dist",
+        "in [0, 1]",
+    )?;
+    if let Some(t) = b.nms_iou_threshold {
+        check(unit(t), "baseline.nms_iou_threshold", "in [0, 1]")?;
+    }
+    if let Some(g) = b.world_gate_chi2 {
+        check_positive(g, limits::CHI2, "baseline.world_gate_chi2")?;
+    }
+    check_range(
+        b.world_accel_std_m_s2,
+        0.0,
+        limits::WORLD_ACCEL_STD_M_S2,
+        "baseline.world_accel_std_m_s2",
+    )?;
+    check(
+        unit(b.class_mismatch_cost),
+        "baseline.class_mismatch_cost",
+        "in [0, 1]",
+    )?;
+    if let Some((name, requirement)) = b.cmc_smoothing.invalid() {
+        check(
+            false,
+            &format!("baseline.cmc_smoothing.{name}"),
+            requirement,
+        )?;
+    }
+    Ok(())
+}
+
+/// The `reid` section: its own values, then the drift estimate's (`reid.drift`), then every
+/// class's (`reid.classes.<id>` in id order, then `reid.default_class`).
+fn validate_reid(r: &ReidParams) -> Result<(), TrackError> {
+    check(
+        (1..=limits::WINDOW_FRAMES).contains(&r.window_frames),
+        "reid.window_frames",
+        &format!("in [1, {}]", limits::WINDOW_FRAMES),
+    )?;
+    check(
+        r.exit_border_fraction.is_finite() && (0.0..0.5).contains(&r.exit_border_fraction),
+        "reid.exit_border_fraction",
+        "in [0, 0.5)",
+    )?;
+    check_positive(r.memory_max_s, limits::MEMORY_MAX_S, "reid.memory_max_s")?;
+    check_positive(r.gate_chi2, limits::CHI2, "reid.gate_chi2")?;
+    check_range(r.long_gap_s, 0.0, limits::MEMORY_MAX_S, "reid.long_gap_s")?;
+    check_positive(
+        r.long_gap_gate_chi2,
+        limits::CHI2,
+        "reid.long_gap_gate_chi2",
+    )?;
+    check(
+        (1..=limits::WINDOW_FRAMES).contains(&r.appearance_min_count),
+        "reid.appearance_min_count",
+        &format!("in [1, {}]", limits::WINDOW_FRAMES),
+    )?;
+    check_range(
+        r.defer_margin_chi2,
+        0.0,
+        limits::CHI2,
+        "reid.defer_margin_chi2",
+    )?;
+    check(
+        r.defer_max_frames <= limits::WINDOW_FRAMES,
+        "reid.defer_max_frames",
+        &format!("in [0, {}]", limits::WINDOW_FRAMES),
+    )?;
+    validate_drift(&r.drift)?;
+    let classes = r
+        .classes
+        .iter()
+        .map(|(id, c)| (format!("reid.classes.{id}"), c))
+        .chain(std::iter::once((
+            "reid.default_class".to_owned(),
+            &r.default_class,
+        )));
+    for (path, c) in classes {
+        validate_class(&path, c)?;
+    }
+    Ok(())
+}
+
+/// The `reid.drift` section.
+fn validate_drift(d: &DriftParams) -> Result<(), TrackError> {
+    check_positive(
+        d.time_constant_s,
+        limits::MEMORY_MAX_S,
+        "reid.drift.time_constant_s",
+    )?;
+    check_range(
+        d.min_sample_s,
+        0.0,
+        limits::MEMORY_MAX_S,
+        "reid.drift.min_sample_s",
+    )?;
+    check_positive(
+        d.max_vel_std_m_s,
+        limits::SPEED_M_S,
+        "reid.drift.max_vel_std_m_s",
+    )?;
+    Ok(())
+}
+
+/// One class's ReID thresholds, `path` naming the class (`reid.classes.2`).
+fn validate_class(path: &str, c: &ClassReidParams) -> Result<(), TrackError> {
+    check_positive(
+        c.tau_match_m,
+        limits::GATE_M,
+        &format!("{path}.tau_match_m"),
+    )?;
+    check_range(
+        c.tau_memory_s,
+        0.0,
+        limits::TAU_MEMORY_S,
+        &format!("{path}.tau_memory_s"),
+    )?;
+    check_range(
+        c.lambda_per_s,
+        0.0,
+        limits::LAMBDA_PER_S,
+        &format!("{path}.lambda_per_s"),
+    )?;
+    check_range(
+        c.max_gate_m,
+        c.tau_match_m,
+        limits::GATE_M,
+        &format!("{path}.max_gate_m"),
+    )?;
+    check_range(
+        c.diffusion_m2_s,
+        0.0,
+        limits::DIFFUSION_M2_S,
+        &format!("{path}.diffusion_m2_s"),
+    )?;
+    check_range(
+        c.view_bias_m,
+        0.0,
+        limits::GATE_M,
+        &format!("{path}.view_bias_m"),
+    )?;
+    check_range(
+        c.appearance_gate,
+        0.0,
+        1.0,
+        &format!("{path}.appearance_gate"),
+    )?;
+    check_range(
+        c.appearance_weight_chi2,
+        0.0,
+        limits::CHI2,
+        &format!("{path}.appearance_weight_chi2"),
+    )?;
+    check_range(
+        c.own_speed_std_m_s,
+        0.0,
+        limits::SPEED_M_S,
+        &format!("{path}.own_speed_std_m_s"),
+    )?;
+    check_range(
+        c.own_motion_s,
+        0.0,
+        limits::TAU_MEMORY_S,
+        &format!("{path}.own_motion_s"),
+    )?;
+    Ok(())
+}
+
+/// The `offline` section except `offline.interp_max_gap_frames` (see
+/// [`validate_interpolation`]).
+fn validate_offline(o: &OfflineParams) -> Result<(), TrackError> {
+    check(
+        (1..=limits::WINDOW_FRAMES).contains(&o.entry_window_frames),
+        "offline.entry_window_frames",
+        &format!("in [1, {}]", limits::WINDOW_FRAMES),
+    )?;
+    check(
+        (1..=limits::FRAMES).contains(&o.track_buffer_frames),
+        "offline.track_buffer_frames",
+        &format!("in [1, {}]", limits::FRAMES),
+    )?;
+    check_positive(o.gate_chi2, limits::CHI2, "offline.gate_chi2")?;
+    check_positive(
+        o.chain_velocity_min_s,
+        limits::MEMORY_MAX_S,
+        "offline.chain_velocity_min_s",
+    )?;
+    check(
+        o.weak_class_max_detections <= limits::WINDOW_FRAMES,
+        "offline.weak_class_max_detections",
+        &format!("in [0, {}]", limits::WINDOW_FRAMES),
+    )?;
+    check(
+        (0.0..=1.0).contains(&o.scant_appearance_gate),
+        "offline.scant_appearance_gate",
+        "in [0, 1]",
+    )?;
+    Ok(())
+}
+
+/// The `contact` section.
+fn validate_contact(c: &ContactParams) -> Result<(), TrackError> {
+    for (v, name) in [
+        (c.contact_iou, "contact.contact_iou"),
+        (c.clean_iou, "contact.clean_iou"),
+    ] {
+        check(v > 0.0 && v <= 1.0, name, "in (0, 1]")?;
+    }
+    check(unit(c.margin), "contact.margin", "in [0, 1]")?;
+    for (v, name) in [
+        (c.anchor_min_count, "contact.anchor_min_count"),
+        (c.post_count, "contact.post_count"),
+        (c.partner_min_count, "contact.partner_min_count"),
+    ] {
+        check(
+            (1..=limits::WINDOW_FRAMES).contains(&v),
+            name,
+            &format!("in [1, {}]", limits::WINDOW_FRAMES),
+        )?;
+    }
+    Ok(())
+}
+
+/// `offline.interp_max_gap_frames`.
+fn validate_interpolation(o: &OfflineParams) -> Result<(), TrackError> {
+    check(
+        o.interp_max_gap_frames <= limits::FRAMES,
+        "offline.interp_max_gap_frames",
+        &format!("in [0, {}]", limits::FRAMES),
+    )
 }
 
 #[cfg(test)]

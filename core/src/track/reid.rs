@@ -2,7 +2,8 @@
 //! tracker and the offline post-processing.
 //!
 //! A finished track ("exit", `T_i` in the paper, waiting in the memory bank) is linked to a
-//! track that started later ("entry", `T_j`) of the same class:
+//! track that started later ("entry", `T_j`) of the same class (but for the offline orphans,
+//! below):
 //!
 //! 1. short-term ReID (Eq. 6): exits lost *inside* the view, cost = world distance between
 //!    the exit and the entry position, gated by `tau_match`;
@@ -15,8 +16,12 @@
 //! the pairs inside the gate by likelihood ([`ReidParams::likelihood_cost`]), and prices
 //! "this entry is a new object" in the assignment.
 //!
-//! Each stage is one Hungarian assignment per class (class-wise ReID): tracks of different
-//! classes are never linked.
+//! Each stage is one Hungarian assignment per class (class-wise ReID): these assignments never
+//! link tracks of different classes. Only the offline post-processing goes further and offers
+//! a tracklet left unlinked (an orphan) as another class: as one with the same thresholds when
+//! its own class rests on few detections (`offline.weak_class_max_detections`), or as one
+//! whose thresholds are no wider than its own when the colour signatures of both ends agree
+//! (`offline.stricter_class_orphans`); see `link_orphans_as_other_classes` in `offline.rs`.
 //!
 //! **Time units.** The paper counts time in frames; here every time is in seconds (frames
 //! can be dropped, the frame rate is not constant): velocities are m/s, `dt` is s, `lambda`
@@ -29,8 +34,8 @@ use nalgebra::{Matrix2, Vector2};
 use super::appearance::Appearance;
 use super::assign::solve_gated;
 use super::drift::{DriftEstimate, SeaDrift};
-use super::online::mahalanobis2;
 use super::params::{ClassReidParams, LongTermGate, ReidParams};
+use super::world::mahalanobis2;
 
 /// One end of a track as seen by ReID: where and when it was last (exit) or first (entry)
 /// observed on the sea, and its velocity over the window `w` there.

@@ -17,7 +17,7 @@ pub struct WorldObservation {
 impl WorldObservation {
     /// The sea-surface observation of a box: its centre (the paper's `X^2D` hat, Sec. 3.2)
     /// geolocated in `frame`; `None` when the centre's ray misses the sea.
-    pub fn of_box(frame: &crate::geo::FrameGeometry<'_>, bbox: &super::BBox) -> Option<Self> {
+    pub fn of_box(frame: &crate::geo::FrameGeometry<'_>, bbox: &super::bbox::BBox) -> Option<Self> {
         let (cx, cy) = bbox.center();
         let g = frame.locate(crate::geo::Pixel::new(cx, cy)).ok()?;
         Some(Self {
@@ -150,6 +150,14 @@ impl WorldFilter {
         self.state.pos_ne_m = Vector2::new(x[0], x[1]);
         self.state.vel_ne_m_s = Vector2::new(x[2], x[3]);
     }
+}
+
+/// Squared Mahalanobis distance `d^T S^-1 d` of a north/east offset `d` with covariance `S`
+/// (the online world stage and the ReID gates); `None` when `S` is singular or the result is
+/// not finite.
+pub(crate) fn mahalanobis2(d: Vector2<f64>, s: Matrix2<f64>) -> Option<f64> {
+    let d2 = d.dot(&(s.try_inverse()? * d));
+    (d2.is_finite() && d2 >= 0.0).then_some(d2)
 }
 
 #[cfg(test)]
