@@ -1,23 +1,13 @@
 //! End-to-end tests of the `mgmot-sim` binary: listing, bad input, determinism of the
 //! ground truth, and the output formats.
 
+use crate::common::{free_tcp_port, run_sim, sim, stderr_text, Proc, TestDir};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args(args)
-        .env("RUST_LOG", "warn")
-        .output()
-        .expect("mgmot-sim runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::{Command, Output, Stdio};
+use std::time::Duration;
 
 fn assert_clean_failure(o: &Output, needle: &str) {
-    let err = stderr(o);
+    let err = stderr_text(o);
     assert!(!o.status.success(), "expected failure, stderr: {err}");
     assert!(!err.contains("panicked"), "panic: {err}");
     assert!(err.contains(needle), "`{needle}` not in: {err}");
@@ -25,7 +15,7 @@ fn assert_clean_failure(o: &Output, needle: &str) {
 
 #[test]
 fn lists_the_shipped_scenarios() {
-    let o = sim(&["list"]);
+    let o = run_sim(&["list"]);
     assert!(o.status.success());
     let out = String::from_utf8_lossy(&o.stdout);
     for name in [
@@ -51,7 +41,7 @@ fn lists_the_shipped_scenarios() {
 
 #[test]
 fn help_documents_every_mode() {
-    let o = sim(&["--help"]);
+    let o = run_sim(&["--help"]);
     let out = String::from_utf8_lossy(&o.stdout);
     for word in [
         "run",
@@ -67,9 +57,9 @@ fn help_documents_every_mode() {
 
 #[test]
 fn unknown_scenario_is_a_clear_error() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("x");
-    let o = sim(&[
+    let dir = TestDir::new();
+    let out = dir.join("x");
+    let o = run_sim(&[
         "render",
         "-s",
         "no_such_scenario",
@@ -81,34 +71,34 @@ fn unknown_scenario_is_a_clear_error() {
 
 #[test]
 fn invalid_toml_names_file_line_and_field() {
-    let dir = tempfile::tempdir().unwrap();
-    let bad = dir.path().join("bad.toml");
+    let dir = TestDir::new();
+    let bad = dir.join("bad.toml");
     std::fs::write(&bad, "name = \"x\"\nduration_s = 10\n[origin]\nlat_deg = 1\nlon_deg = 2\n[drone]\nsped_mps = 3\n[drone.path]\nkind = \"hover\"\nat_ne_m = [0, 0]\n").unwrap();
-    let o = sim(&[
+    let o = run_sim(&[
         "detections",
         "-s",
         bad.to_str().unwrap(),
         "-o",
-        dir.path().join("d.json").to_str().unwrap(),
+        dir.join("d.json").to_str().unwrap(),
     ]);
     assert_clean_failure(&o, "sped_mps");
     assert_clean_failure(&o, "bad.toml");
     assert_clean_failure(&o, "line 7");
 
     std::fs::write(&bad, "name = \"x\"\nduration_s = [\n").unwrap();
-    let o = sim(&[
+    let o = run_sim(&[
         "render",
         "-s",
         bad.to_str().unwrap(),
         "-o",
-        dir.path().join("r").to_str().unwrap(),
+        dir.join("r").to_str().unwrap(),
     ]);
     assert_clean_failure(&o, "bad.toml");
 }
 
 #[test]
 fn bad_addresses_are_clear_errors() {
-    let o = sim(&[
+    let o = run_sim(&[
         "run",
         "-s",
         "calm_baseline",
@@ -118,7 +108,7 @@ fn bad_addresses_are_clear_errors() {
         "carrier-pigeon:1",
     ]);
     assert_clean_failure(&o, "invalid --mavlink address");
-    let o = sim(&[
+    let o = run_sim(&[
         "run",
         "-s",
         "calm_baseline",
@@ -128,7 +118,7 @@ fn bad_addresses_are_clear_errors() {
         "tcp:1",
     ]);
     assert_clean_failure(&o, "invalid --frames");
-    let o = sim(&[
+    let o = run_sim(&[
         "run",
         "-s",
         "calm_baseline",
@@ -144,13 +134,9 @@ fn bad_addresses_are_clear_errors() {
 fn unreachable_tcp_peer_is_retried_not_fatal() {
     // Nothing listens on this port: the link retries in the background and the run ends
     // normally.
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = free_tcp_port();
     let addr = format!("tcpout:127.0.0.1:{port}");
-    let o = sim(&[
+    let o = run_sim(&[
         "-v",
         "run",
         "-s",
@@ -160,7 +146,7 @@ fn unreachable_tcp_peer_is_retried_not_fatal() {
         "--mavlink",
         &addr,
     ]);
-    let err = stderr(&o);
+    let err = stderr_text(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("retrying"), "{err}");
 }
@@ -169,37 +155,27 @@ fn unreachable_tcp_peer_is_retried_not_fatal() {
 fn sigint_stops_a_run_and_writes_what_ran() {
     // A 60 s real-time run, interrupted after about 1.5 s: exit 0 within a second or two, the
     // truth of the frames that ran written out.
-    let out = tempfile::tempdir().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args(["run", "-s", "calm_baseline", "--realtime", "--truth-out"])
-        .arg(out.path())
-        .env("RUST_LOG", "warn")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let out = TestDir::new();
+    let mut child = Proc::start(
+        sim(&["run", "-s", "calm_baseline", "--realtime", "--truth-out"])
+            .arg(out.path())
+            .stderr(Stdio::piped()),
+    );
+    std::thread::sleep(Duration::from_millis(1500));
     let kill = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
-    let start = std::time::Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > std::time::Duration::from_secs(10) {
-            let _ = child.kill();
-            panic!("mgmot-sim did not stop within 10 s of SIGINT");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    };
-    let o = child.wait_with_output().unwrap();
-    let err = stderr(&o);
+    let status = child
+        .wait_within(Duration::from_secs(10))
+        .expect("mgmot-sim did not stop within 10 s of SIGINT");
+    let o = child.wait_with_output();
+    let err = stderr_text(&o);
     assert!(status.success(), "{err}");
     assert!(err.contains("interrupted"), "{err}");
     // camera.csv has a row per frame (gt.txt only rows with objects in view).
-    let camera = std::fs::read_to_string(out.path().join("camera.csv")).unwrap();
+    let camera = std::fs::read_to_string(out.join("camera.csv")).unwrap();
     let last_frame = camera
         .lines()
         .skip(1)
@@ -213,7 +189,7 @@ fn sigint_stops_a_run_and_writes_what_ran() {
 }
 
 fn render_truth(dir: &Path, seed: &str) {
-    let o = sim(&[
+    let o = run_sim(&[
         "render",
         "-s",
         "swimmer_group",
@@ -226,33 +202,33 @@ fn render_truth(dir: &Path, seed: &str) {
         "-o",
         dir.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.status.success(), "{}", stderr_text(&o));
 }
 
 #[test]
 fn same_seed_gives_byte_identical_ground_truth() {
-    let a = tempfile::tempdir().unwrap();
-    let b = tempfile::tempdir().unwrap();
-    let c = tempfile::tempdir().unwrap();
+    let a = TestDir::new();
+    let b = TestDir::new();
+    let c = TestDir::new();
     render_truth(a.path(), "42");
     render_truth(b.path(), "42");
     render_truth(c.path(), "43");
     for f in ["gt/gt.txt", "world.csv", "camera.csv", "annotations.json"] {
-        let x = std::fs::read(a.path().join(f)).unwrap();
-        let y = std::fs::read(b.path().join(f)).unwrap();
+        let x = std::fs::read(a.join(f)).unwrap();
+        let y = std::fs::read(b.join(f)).unwrap();
         assert!(!x.is_empty(), "{f} empty");
         assert_eq!(x, y, "{f} differs between identical runs");
     }
-    let x = std::fs::read(a.path().join("gt/gt.txt")).unwrap();
-    let z = std::fs::read(c.path().join("gt/gt.txt")).unwrap();
+    let x = std::fs::read(a.join("gt/gt.txt")).unwrap();
+    let z = std::fs::read(c.join("gt/gt.txt")).unwrap();
     assert_ne!(x, z, "another seed should move the swimmers");
 }
 
 #[test]
 fn seadronessee_json_has_the_dataset_layout() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     render_truth(dir.path(), "1");
-    let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
+    let text = std::fs::read_to_string(dir.join("annotations.json")).unwrap();
     let j: serde_json::Value = serde_json::from_str(&text).unwrap();
     let img = &j["images"][0];
     for key in [
@@ -285,7 +261,7 @@ fn seadronessee_json_has_the_dataset_layout() {
         .collect();
     assert!(cats.contains(&(1, "swimmer".into())) && cats.contains(&(5, "buoy".into())));
     // MOT gt: frame,id,x,y,w,h,1,class,visibility
-    let gt = std::fs::read_to_string(dir.path().join("gt/gt.txt")).unwrap();
+    let gt = std::fs::read_to_string(dir.join("gt/gt.txt")).unwrap();
     let first: Vec<&str> = gt.lines().next().unwrap().split(',').collect();
     assert_eq!(first.len(), 9);
     assert_eq!(first[6], "1");
@@ -295,9 +271,9 @@ fn seadronessee_json_has_the_dataset_layout() {
 
 #[test]
 fn detections_in_both_formats() {
-    let dir = tempfile::tempdir().unwrap();
-    let json = dir.path().join("det.json");
-    let o = sim(&[
+    let dir = TestDir::new();
+    let json = dir.join("det.json");
+    let o = run_sim(&[
         "detections",
         "-s",
         "boats_crossing",
@@ -306,7 +282,7 @@ fn detections_in_both_formats() {
         "-o",
         json.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.status.success(), "{}", stderr_text(&o));
     let dets: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let dets = dets.as_array().unwrap();
@@ -316,9 +292,9 @@ fn detections_in_both_formats() {
         assert!(s > 0.0 && s < 1.0);
         assert_eq!(d["bbox"].as_array().unwrap().len(), 4);
     }
-    assert!(dir.path().join("det_gt/gt/gt.txt").exists());
-    let txt = dir.path().join("det.txt");
-    let o = sim(&[
+    assert!(dir.join("det_gt/gt/gt.txt").exists());
+    let txt = dir.join("det.txt");
+    let o = run_sim(&[
         "detections",
         "-s",
         "boats_crossing",
@@ -327,7 +303,7 @@ fn detections_in_both_formats() {
         "-o",
         txt.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.status.success(), "{}", stderr_text(&o));
     let lines = std::fs::read_to_string(&txt).unwrap();
     assert_eq!(
         lines.lines().count(),
@@ -335,22 +311,22 @@ fn detections_in_both_formats() {
         "same seed, same detections in both formats"
     );
     assert!(lines.lines().all(|l| l.split(',').count() == 10));
-    let o = sim(&[
+    let o = run_sim(&[
         "detections",
         "-s",
         "boats_crossing",
         "-o",
-        dir.path().join("d.csv").to_str().unwrap(),
+        dir.join("d.csv").to_str().unwrap(),
     ]);
     assert_clean_failure(&o, "must end in .json");
 }
 
 #[test]
 fn renders_png_and_jpg_images() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = TestDir::new();
     for fmt in ["png", "jpg"] {
-        let out = dir.path().join(fmt);
-        let o = sim(&[
+        let out = dir.join(fmt);
+        let o = run_sim(&[
             "render",
             "-s",
             "calm_baseline",
@@ -367,7 +343,7 @@ fn renders_png_and_jpg_images() {
             "-o",
             out.to_str().unwrap(),
         ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(o.status.success(), "{}", stderr_text(&o));
         let img = image::open(out.join(format!("img1/000011.{fmt}"))).unwrap();
         assert_eq!((img.width(), img.height()), (320, 180));
         assert!(out.join("seqinfo.ini").exists());
@@ -376,7 +352,7 @@ fn renders_png_and_jpg_images() {
 
 #[test]
 fn missing_v4l2_device_is_a_clear_error() {
-    let o = sim(&[
+    let o = run_sim(&[
         "run",
         "-s",
         "calm_baseline",

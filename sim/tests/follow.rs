@@ -4,88 +4,28 @@
 //! the frames on the autopilot clock, and the camera pose it used (its truth camera.csv) is
 //! the stand-in's true camera pose at those stamps.
 
+use crate::common::{
+    connect_frames, free_tcp_port, free_udp_port, read_frame, spawn_sim, stderr_text, TestDir,
+};
 use mgmot_sim::framing::{FrameHeader, HEADER_LEN};
 use mgmot_sim::scenario::Scenario;
 use mgmot_sim::truth::Optics;
 use mgmot_sim::world::World;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::io::Read;
-use std::net::{TcpListener, UdpSocket};
 use std::os::unix::net::UnixStream;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SCENARIO: &str = "gimbal_swings";
 
-fn spawn(args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args(args)
-        .env("RUST_LOG", "info")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("mgmot-sim starts")
-}
-
-fn connect_retry(path: &Path) -> UnixStream {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        match UnixStream::connect(path) {
-            Ok(s) => return s,
-            Err(e) if Instant::now() < deadline => {
-                let _ = e;
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(e) => panic!("cannot connect to {}: {e}", path.display()),
-        }
+/// Every frame up to the end of the stream: header and arrival (the pixels are not kept).
+fn read_headers(s: &mut UnixStream) -> Vec<(FrameHeader, Instant)> {
+    let mut frames = Vec::new();
+    while let Some(f) = read_frame(s) {
+        frames.push((f.header, f.arrived));
     }
-}
-
-/// One frame's header and when it arrived; `None` at the end of the stream.
-fn read_frame(s: &mut UnixStream) -> Option<(FrameHeader, Instant)> {
-    let mut h = [0u8; HEADER_LEN];
-    s.read_exact(&mut h).ok()?;
-    if mgmot::camera::sim_framing::is_end_of_stream(&h) {
-        return None;
-    }
-    let header = FrameHeader::decode(&h).expect("a valid header");
-    let mut px = vec![0u8; header.payload_len as usize];
-    s.read_exact(&mut px).ok()?;
-    Some((header, Instant::now()))
-}
-
-fn strip_ansi(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    let mut chars = s.chars();
-    while let Some(c) = chars.next() {
-        if c == '\u{1b}' {
-            for d in chars.by_ref() {
-                if d.is_ascii_alphabetic() {
-                    break;
-                }
-            }
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
-
-fn free_tcp_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+    frames
 }
 
 /// Agreement of follow's camera.csv with the stand-in's true pose.
@@ -161,13 +101,13 @@ fn logged_number(log: &str, line_has: &str, key: &str) -> Option<u64> {
 
 #[test]
 fn follow_renders_the_stand_in_autopilots_pose_on_its_clock() {
-    let dir = tempfile::tempdir().unwrap();
-    let sock = dir.path().join("follow.sock");
+    let dir = TestDir::new();
+    let sock = dir.join("follow.sock");
     let port = free_tcp_port();
-    let run_truth = dir.path().join("run_truth");
-    let follow_truth = dir.path().join("follow_truth");
+    let run_truth = dir.join("run_truth");
+    let follow_truth = dir.join("follow_truth");
     let run_spawned = Instant::now();
-    let run = spawn(&[
+    let run = spawn_sim(&[
         "run",
         "-s",
         SCENARIO,
@@ -179,7 +119,7 @@ fn follow_renders_the_stand_in_autopilots_pose_on_its_clock() {
         "--truth-out",
         run_truth.to_str().unwrap(),
     ]);
-    let follow = spawn(&[
+    let follow = spawn_sim(&[
         "follow",
         "-s",
         SCENARIO,
@@ -196,15 +136,12 @@ fn follow_renders_the_stand_in_autopilots_pose_on_its_clock() {
         "--truth-out",
         follow_truth.to_str().unwrap(),
     ]);
-    let mut s = connect_retry(&sock);
-    let mut frames = Vec::new();
-    while let Some(f) = read_frame(&mut s) {
-        frames.push(f);
-    }
-    let out = follow.wait_with_output().unwrap();
-    let log = strip_ansi(&String::from_utf8_lossy(&out.stderr));
+    let mut s = connect_frames(&sock);
+    let frames = read_headers(&mut s);
+    let out = follow.wait_with_output();
+    let log = stderr_text(&out);
     assert!(out.status.success(), "{log}");
-    let run_out = run.wait_with_output().unwrap();
+    let run_out = run.wait_with_output();
     assert!(run_out.status.success());
 
     // Subscribed: every request acknowledged, and the 50 Hz it asked for honoured (the
@@ -298,11 +235,11 @@ fn follow_renders_the_stand_in_autopilots_pose_on_its_clock() {
 
 #[test]
 fn follow_waits_for_telemetry_then_subscribes_over_udp() {
-    let dir = tempfile::tempdir().unwrap();
-    let sock = dir.path().join("follow.sock");
+    let dir = TestDir::new();
+    let sock = dir.join("follow.sock");
     let port = free_udp_port();
     // Follow first: nobody to talk to, so no pose and no frames.
-    let follow = spawn(&[
+    let follow = spawn_sim(&[
         "follow",
         "-s",
         SCENARIO,
@@ -317,7 +254,7 @@ fn follow_waits_for_telemetry_then_subscribes_over_udp() {
         "--height",
         "90",
     ]);
-    let mut s = connect_retry(&sock);
+    let mut s = connect_frames(&sock);
     s.set_read_timeout(Some(Duration::from_millis(1500)))
         .unwrap();
     let mut h = [0u8; HEADER_LEN];
@@ -331,7 +268,7 @@ fn follow_waits_for_telemetry_then_subscribes_over_udp() {
     );
     s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
     // The stand-in on udpin only knows where to send once follow's heartbeat reached it.
-    let run = spawn(&[
+    let run = spawn_sim(&[
         "run",
         "-s",
         SCENARIO,
@@ -341,16 +278,11 @@ fn follow_waits_for_telemetry_then_subscribes_over_udp() {
         "--mavlink",
         &format!("udpin:127.0.0.1:{port}"),
     ]);
-    let mut frames = Vec::new();
-    while let Some(f) = read_frame(&mut s) {
-        frames.push(f);
-    }
-    let out = follow.wait_with_output().unwrap();
-    let log = strip_ansi(&String::from_utf8_lossy(&out.stderr));
+    let frames = read_headers(&mut s);
+    let out = follow.wait_with_output();
+    let log = stderr_text(&out);
     assert!(out.status.success(), "{log}");
-    let mut run = run;
-    let _ = run.kill();
-    let _ = run.wait();
+    drop(run); // killed
     assert!(log.contains("no pose: no frames"), "{log}");
     assert!(
         log.contains(

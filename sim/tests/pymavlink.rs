@@ -6,6 +6,7 @@
 //! missing the test fails and says so (scripts/test.sh installs pymavlink into `.venv`): a
 //! missing tool never passes as a skip.
 
+use crate::common::{free_udp_port, sim, Proc};
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 
@@ -35,25 +36,21 @@ fn pymavlink_decodes_the_telemetry() {
         env!("CARGO_MANIFEST_DIR"),
         "/../scripts/sim_pymavlink_decode.py"
     );
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let mut py = Command::new("python3")
-        .args([script, "--port", &port.to_string(), "--seconds", "4"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let port = free_udp_port();
+    let mut py = Proc::start(
+        Command::new("python3")
+            .args([script, "--port", &port.to_string(), "--seconds", "4"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    );
     // Wait until the decoder listens.
-    let mut err = BufReader::new(py.stderr.take().unwrap());
+    let mut err = BufReader::new(py.take_stderr());
     let mut line = String::new();
     err.read_line(&mut line).unwrap();
     assert_eq!(line.trim(), "ready", "decoder did not start: {line}");
 
-    let mut sim = Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args([
+    let simulator = Proc::start(
+        sim(&[
             "run",
             "-s",
             "gimbal_swings",
@@ -63,13 +60,10 @@ fn pymavlink_decodes_the_telemetry() {
             "--mavlink",
             &format!("udpout:127.0.0.1:{port}"),
         ])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    let out = py.wait_with_output().unwrap();
-    let _ = sim.kill();
-    let _ = sim.wait();
+        .stdout(Stdio::null()),
+    );
+    let out = py.wait_with_output();
+    drop(simulator); // killed
     assert!(out.status.success(), "decoder failed");
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     println!("{j:#}");

@@ -2,10 +2,11 @@
 //! opens the slave side as `serial:/dev/pts/N:57600`; the test reads the master side and
 //! decodes MAVLink 2 with the mavlink crate.
 
+use crate::common::{sim, Proc};
 use mavlink::dialects::common::MavMessage;
 use std::collections::HashMap;
 use std::fs::File;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 #[test]
@@ -23,8 +24,8 @@ fn telemetry_over_a_pseudo_terminal() {
     nix::sys::termios::cfmakeraw(&mut tio);
     nix::sys::termios::tcsetattr(&pty.slave, nix::sys::termios::SetArg::TCSANOW, &tio).unwrap();
     let addr = format!("serial:{}:57600", slave_path.display());
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args([
+    let mut child = Proc::start(
+        sim(&[
             "run",
             "-s",
             "calm_baseline",
@@ -34,11 +35,9 @@ fn telemetry_over_a_pseudo_terminal() {
             "--mavlink",
             &addr,
         ])
-        .env("RUST_LOG", "warn")
         .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        .stderr(Stdio::piped()),
+    );
     let master = File::from(pty.master);
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
@@ -58,11 +57,11 @@ fn telemetry_over_a_pseudo_terminal() {
                     .entry(mavlink::Message::message_name(&m))
                     .or_default() += 1
             }
-            Err(_) if child.try_wait().ok().flatten().is_some() => break,
+            Err(_) if child.exited().is_some() => break,
             Err(_) => {}
         }
     }
-    let out = child.wait_with_output().unwrap();
+    let out = child.wait_with_output();
     assert!(
         out.status.success(),
         "{}",

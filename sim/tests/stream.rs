@@ -2,52 +2,14 @@
 //! consumer that disconnects), telemetry over UDP decoded with the mavlink crate, and the
 //! autopilot's answers to TIMESYNC, SET_MESSAGE_INTERVAL and REQUEST_MESSAGE.
 
+use crate::common::{
+    connect_frames, free_udp_port, read_frame, read_frames, spawn_sim, stderr_text, TestDir,
+};
 use mavlink::dialects::common::{MavCmd, MavMessage, MavResult, COMMAND_LONG_DATA, TIMESYNC_DATA};
 use mavlink::MavConnection;
-use mgmot_sim::framing::{FrameHeader, HEADER_LEN};
 use std::collections::HashMap;
-use std::io::Read;
 use std::net::UdpSocket;
-use std::os::unix::net::UnixStream;
-use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn spawn(args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_mgmot-sim"))
-        .args(args)
-        .env("RUST_LOG", "info")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("mgmot-sim starts")
-}
-
-fn connect_retry(path: &Path) -> UnixStream {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        match UnixStream::connect(path) {
-            Ok(s) => return s,
-            Err(e) if Instant::now() < deadline => {
-                let _ = e;
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(e) => panic!("cannot connect to {}: {e}", path.display()),
-        }
-    }
-}
-
-fn read_frame(s: &mut UnixStream) -> Option<(FrameHeader, Vec<u8>)> {
-    let mut h = [0u8; HEADER_LEN];
-    s.read_exact(&mut h).ok()?;
-    if mgmot::camera::sim_framing::is_end_of_stream(&h) {
-        return None;
-    }
-    let header = FrameHeader::decode(&h).unwrap();
-    let mut px = vec![0u8; header.payload_len as usize];
-    s.read_exact(&mut px).ok()?;
-    Some((header, px))
-}
 
 /// Parses every MAVLink 2 message in the datagrams received until `stop`.
 fn collect_udp(sock: &UdpSocket, stop: impl Fn() -> bool) -> Vec<MavMessage> {
@@ -68,13 +30,13 @@ fn collect_udp(sock: &UdpSocket, stop: impl Fn() -> bool) -> Vec<MavMessage> {
 
 #[test]
 fn lockstep_frames_and_udp_telemetry() {
-    let dir = tempfile::tempdir().unwrap();
-    let sock_path = dir.path().join("frames.sock");
+    let dir = TestDir::new();
+    let sock_path = dir.join("frames.sock");
     let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
     let port = udp.local_addr().unwrap().port();
     let frames_arg = format!("unix:{}", sock_path.display());
     let mav_arg = format!("udpout:127.0.0.1:{port}");
-    let mut child = spawn(&[
+    let mut child = spawn_sim(&[
         "run",
         "-s",
         "camera_desync",
@@ -90,21 +52,16 @@ fn lockstep_frames_and_udp_telemetry() {
         "--mavlink",
         &mav_arg,
     ]);
-    let mut s = connect_retry(&sock_path);
-    let reader = std::thread::spawn(move || {
-        let mut frames = Vec::new();
-        while let Some(f) = read_frame(&mut s) {
-            frames.push(f);
-        }
-        frames
-    });
+    let mut s = connect_frames(&sock_path);
+    let reader = std::thread::spawn(move || read_frames(&mut s));
     let msgs = collect_udp(&udp, || reader.is_finished());
     let frames = reader.join().unwrap();
-    let status = child.wait().unwrap();
+    let status = child.wait();
     assert!(status.success());
 
     assert_eq!(frames.len(), 60, "2 s at 30 fps");
-    for (k, (h, px)) in frames.iter().enumerate() {
+    for (k, f) in frames.iter().enumerate() {
+        let (h, px) = (&f.header, &f.pixels);
         assert_eq!(h.index, k as u64);
         assert_eq!((h.width, h.height, &h.fourcc), (160, 90, b"RGB3"));
         assert_eq!(px.len(), 160 * 90 * 3);
@@ -117,7 +74,7 @@ fn lockstep_frames_and_udp_telemetry() {
             h.capture_time_us
         );
     }
-    assert_ne!(frames[0].1, frames[59].1, "the picture changes");
+    assert_ne!(frames[0].pixels, frames[59].pixels, "the picture changes");
 
     let mut counts: HashMap<&str, usize> = HashMap::new();
     for m in &msgs {
@@ -142,10 +99,10 @@ fn lockstep_frames_and_udp_telemetry() {
 
 #[test]
 fn realtime_survives_a_consumer_that_disconnects() {
-    let dir = tempfile::tempdir().unwrap();
-    let sock_path = dir.path().join("rt.sock");
+    let dir = TestDir::new();
+    let sock_path = dir.join("rt.sock");
     let frames_arg = format!("unix:{}", sock_path.display());
-    let child = spawn(&[
+    let child = spawn_sim(&[
         "run",
         "-s",
         "calm_baseline",
@@ -159,19 +116,19 @@ fn realtime_survives_a_consumer_that_disconnects() {
         "--frames",
         &frames_arg,
     ]);
-    let mut s = connect_retry(&sock_path);
-    let (h, _) = read_frame(&mut s).unwrap();
-    let (h2, _) = read_frame(&mut s).unwrap();
+    let mut s = connect_frames(&sock_path);
+    let h = read_frame(&mut s).unwrap().header;
+    let h2 = read_frame(&mut s).unwrap().header;
     assert_eq!(h2.index, h.index + 1);
     drop(s);
     // A second consumer gets later frames.
     std::thread::sleep(Duration::from_millis(300));
-    let mut s = connect_retry(&sock_path);
-    let (h3, _) = read_frame(&mut s).unwrap();
+    let mut s = connect_frames(&sock_path);
+    let h3 = read_frame(&mut s).unwrap().header;
     assert!(h3.index > h2.index + 2, "{} then {}", h2.index, h3.index);
     drop(s);
-    let out = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let out = child.wait_with_output();
+    let err = stderr_text(&out);
     assert!(out.status.success(), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(!sock_path.exists(), "socket file removed at exit");
@@ -179,13 +136,9 @@ fn realtime_survives_a_consumer_that_disconnects() {
 
 #[test]
 fn answers_timesync_and_commands_over_udpin() {
-    let port = UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = free_udp_port();
     let mav_arg = format!("udpin:127.0.0.1:{port}");
-    let mut child = spawn(&[
+    let child = spawn_sim(&[
         "run",
         "-s",
         "calm_baseline",
@@ -254,8 +207,7 @@ fn answers_timesync_and_commands_over_udpin() {
             _ => {}
         }
     }
-    let _ = child.kill();
-    let _ = child.wait();
+    drop(child); // killed
     assert!(timesync, "no TIMESYNC answer");
     assert!(
         acks.contains(&(
