@@ -2,8 +2,11 @@
 //!
 //! The pure core lives in its own crate, `mgmot-core` (no IO dependencies, so the compiler
 //! keeps it pure); its modules are re-exported here under their usual names: [`geo`],
-//! [`track`], [`eval`], [`telemetry`], [`frame`], [`report`], [`operator`], [`health`]. This crate holds
-//! the edges and the wiring (see `ARCHITECTURE.md`):
+//! [`track`], [`eval`], [`telemetry`], [`frame`], [`report`], [`operator`], [`health`],
+//! [`digest`]. The wire contract with the simulator (the generated MAVLink dialect, the frame
+//! framing) is the `mgmot-wire` crate's, re-exported as [`mavlink::dialect`] and
+//! [`camera::sim_framing`]. This crate holds
+//! the edges and the wiring (the layers and a frame's route: the README's "Layout"):
 //!
 //! - [`formats`]: readers and writers for MOTChallenge txt, SeaDronesSee / COCO JSON.
 //! - [`detect`]: ONNX detector through `ort` (tract or ONNX Runtime), letterbox.

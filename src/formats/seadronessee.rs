@@ -81,7 +81,8 @@ pub struct Source {
     pub frame_no: Option<u64>,
 }
 
-/// Drone metadata in the data set's convention (see `ARCHITECTURE.md`).
+/// Drone metadata in the data set's convention (angles in degrees, heading clockwise from
+/// north, pitch below the horizon; `docs/data-formats.md`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Meta {
     /// Latitude (deg).

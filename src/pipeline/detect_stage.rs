@@ -1,5 +1,5 @@
-//! The detector seen by the pipeline: the [`Detector`] trait, the ONNX model
-//! ([`OnnxDetector`], through `mgmot::detect`) that flies, and [`ReplayDetector`], which replays
+//! The pipeline's detect stage: the [`DetectStage`] trait, the ONNX model
+//! ([`OnnxStage`], through `mgmot::detect`) that flies, and [`ReplayStage`], which replays
 //! the simulator's detection output for bench runs that should not spend CPU on inference.
 
 use crate::camera::Frame;
@@ -12,7 +12,7 @@ use std::path::Path;
 
 /// Why a frame could not be run through the detector.
 #[derive(Debug, thiserror::Error)]
-pub enum DetectorError {
+pub enum DetectStageError {
     /// The detector could not be set up (model or file missing or invalid).
     #[error("detector set-up: {0}")]
     Setup(String),
@@ -30,12 +30,12 @@ pub enum DetectorError {
 }
 
 /// Finds objects in a frame. Runs on the inference thread (synchronous, may block).
-pub trait Detector: Send {
+pub trait DetectStage: Send {
     /// Detections of one frame, in its pixel coordinates, without world positions. The frame
     /// is taken by value: the pixels are handed to the model without a copy.
-    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError>;
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectStageError>;
 
-    /// Where the time of the last successful [`Detector::detect`] went, for detectors that
+    /// Where the time of the last successful [`DetectStage::detect`] went, for detectors that
     /// measure it (the latency histograms split the model run from the rest).
     fn last_timings(&self) -> Option<DetectTimings> {
         None
@@ -47,15 +47,15 @@ pub trait Detector: Send {
 /// (and any model whose classes follow SeaDronesSee's order) 1 swimmer, 2 boat, the ids the
 /// tracker's per-class thresholds are keyed by.
 #[derive(Debug)]
-pub struct OnnxDetector {
+pub struct OnnxStage {
     inner: detect::Detector,
     last: Option<DetectTimings>,
 }
 
-impl OnnxDetector {
+impl OnnxStage {
     /// Loads the model (and the backend, once per process) and runs one warm-up inference.
-    pub fn load(config: detect::DetectorConfig) -> Result<Self, DetectorError> {
-        let inner = detect::Detector::load(config).map_err(DetectorError::Model)?;
+    pub fn load(config: detect::DetectorConfig) -> Result<Self, DetectStageError> {
+        let inner = detect::Detector::load(config).map_err(DetectStageError::Model)?;
         Ok(Self { inner, last: None })
     }
 
@@ -65,10 +65,10 @@ impl OnnxDetector {
     }
 }
 
-impl Detector for OnnxDetector {
-    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError> {
+impl DetectStage for OnnxStage {
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectStageError> {
         let index = frame.index;
-        let failed = |message: String| DetectorError::Frame {
+        let failed = |message: String| DetectStageError::Frame {
             frame: index,
             message,
         };
@@ -106,15 +106,16 @@ impl Detector for OnnxDetector {
 /// bench: it measures the rest of the pipeline without the cost of inference, and gives the
 /// tracker the simulator's detector model (known miss and false-positive rates).
 #[derive(Debug, Clone)]
-pub struct ReplayDetector {
+pub struct ReplayStage {
     by_image: HashMap<u64, Vec<Detection>>,
     first_image_id: u64,
 }
 
-impl ReplayDetector {
+impl ReplayStage {
     /// Loads the file.
-    pub fn load(path: &Path, first_image_id: u64) -> Result<Self, DetectorError> {
-        let dets = coco::read_detections(path).map_err(|e| DetectorError::Setup(e.to_string()))?;
+    pub fn load(path: &Path, first_image_id: u64) -> Result<Self, DetectStageError> {
+        let dets =
+            coco::read_detections(path).map_err(|e| DetectStageError::Setup(e.to_string()))?;
         let mut by_image: HashMap<u64, Vec<Detection>> = HashMap::new();
         for d in dets {
             by_image.entry(d.image_id).or_default().push(Detection {
@@ -137,12 +138,12 @@ impl ReplayDetector {
     }
 }
 
-impl Detector for ReplayDetector {
-    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectorError> {
+impl DetectStage for ReplayStage {
+    fn detect(&mut self, frame: Frame) -> Result<Vec<Detection>, DetectStageError> {
         let id = self
             .first_image_id
             .checked_add(frame.index)
-            .ok_or_else(|| DetectorError::Frame {
+            .ok_or_else(|| DetectStageError::Frame {
                 frame: frame.index,
                 message: "image id overflows".into(),
             })?;
@@ -177,7 +178,7 @@ mod tests {
                 {"image_id": 3, "category_id": 1, "bbox": [5, 6, 7, 8], "score": 0.4}]"#,
         )
         .unwrap();
-        let mut d = ReplayDetector::load(&path, 1).unwrap();
+        let mut d = ReplayStage::load(&path, 1).unwrap();
         let f0 = d.detect(frame(0)).unwrap();
         assert_eq!(f0.len(), 1);
         assert_eq!(
@@ -202,7 +203,7 @@ mod tests {
 
     #[test]
     fn onnx_detector_runs_on_a_frame_and_reports_its_timings() {
-        let mut d = OnnxDetector::load(shipped_model()).unwrap();
+        let mut d = OnnxStage::load(shipped_model()).unwrap();
         assert_eq!(d.model().class_names, ["swimmer", "boat"]);
         let mut f = frame(5);
         (f.width_px, f.height_px) = (160, 90);
@@ -218,7 +219,7 @@ mod tests {
 
     #[test]
     fn onnx_detector_names_the_frame_with_a_bad_buffer() {
-        let mut d = OnnxDetector::load(shipped_model()).unwrap();
+        let mut d = OnnxStage::load(shipped_model()).unwrap();
         let mut f = frame(7);
         (f.width_px, f.height_px) = (10, 10);
         let e = d.detect(f).unwrap_err().to_string();
@@ -228,13 +229,13 @@ mod tests {
 
     #[test]
     fn missing_model_names_the_file() {
-        let e = OnnxDetector::load(detect::DetectorConfig::new("/nonexistent/m.onnx")).unwrap_err();
+        let e = OnnxStage::load(detect::DetectorConfig::new("/nonexistent/m.onnx")).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/m.onnx"), "{e}");
     }
 
     #[test]
     fn bad_file_is_a_setup_error_naming_it() {
-        let e = ReplayDetector::load(Path::new("/nonexistent/d.json"), 1).unwrap_err();
+        let e = ReplayStage::load(Path::new("/nonexistent/d.json"), 1).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/d.json"));
     }
 }

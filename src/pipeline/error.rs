@@ -1,6 +1,6 @@
 //! Why the runtime stopped with an error.
 
-use super::detector::DetectorError;
+use super::detect_stage::DetectStageError;
 use crate::mavlink::link::LinkError;
 
 /// Why the runtime stopped with an error.
@@ -14,7 +14,7 @@ pub enum PipelineError {
     Frames(#[from] crate::camera::CameraError),
     /// The detector could not be set up.
     #[error(transparent)]
-    Detector(#[from] DetectorError),
+    Detector(#[from] DetectStageError),
     /// The tracker parameters are invalid.
     #[error("tracker: {0}")]
     Tracker(String),

@@ -5,8 +5,8 @@
 //! records each stage's latency.
 
 use super::capture::Delivered;
-use super::detector::Detector;
-use super::health::announce;
+use super::detect_stage::DetectStage;
+use super::heartbeat::announce;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
 use super::operator_link::OperatorLink;
 use super::recording::FrameRecording;
@@ -36,7 +36,7 @@ const TAKE_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// Everything one frame's processing needs, and what it remembers from frame to frame.
 pub(super) struct FrameStep {
-    detector: Box<dyn Detector>,
+    detector: Box<dyn DetectStage>,
     detector_health: ConditionReport,
     tracker: Tracker,
     telemetry: Arc<Mutex<TelemetryState>>,
@@ -78,7 +78,7 @@ impl FrameStep {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         settings: &Settings,
-        detector: Box<dyn Detector>,
+        detector: Box<dyn DetectStage>,
         tracker: Tracker,
         telemetry: Arc<Mutex<TelemetryState>>,
         operator: OperatorLink,

@@ -7,10 +7,10 @@
 //! the core's `operator`); systemd's READY / WATCHDOG / STATUS notifications (`service`).
 
 mod capture;
-mod detector;
+mod detect_stage;
 mod error;
 mod frame_step;
-mod health;
+mod heartbeat;
 pub mod latency;
 mod operator_link;
 mod recording;
@@ -21,7 +21,7 @@ mod slot;
 mod stats;
 mod telemetry;
 
-pub use detector::{Detector, DetectorError, OnnxDetector, ReplayDetector};
+pub use detect_stage::{DetectStage, DetectStageError, OnnxStage, ReplayStage};
 pub use error::PipelineError;
 pub use run::run;
 pub use shutdown::{shutdown_signal, Shutdown, Trigger};

@@ -5,10 +5,10 @@
 //! the link last so that what is queued goes out.
 
 use super::capture::Delivered;
-use super::detector::{Detector, OnnxDetector, ReplayDetector};
+use super::detect_stage::{DetectStage, OnnxStage, ReplayStage};
 use super::error::PipelineError;
 use super::frame_step::FrameStep;
-use super::health::{announce, heartbeat_and_telemetry_watch};
+use super::heartbeat::{announce, heartbeat_and_telemetry_watch};
 use super::latency::Latency;
 use super::operator_link::OperatorLink;
 use super::recording::{self, FrameRecording};
@@ -19,7 +19,7 @@ use super::telemetry::TelemetryState;
 use crate::camera::CameraStatus;
 use crate::config::{DetectorSettings, MavlinkSettings, Settings};
 use crate::health::{Condition, ConditionReport, Level, Notice};
-use crate::mavlink::{self as link, Inbox, LinkInput, LinkSettings, OperatorRequest};
+use crate::mavlink::{self as mavlink_edge, Inbox, LinkInput, LinkSettings, OperatorRequest};
 use crate::mavlink::{Outputs, SigningSettings};
 use crate::track::Tracker;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -42,13 +42,17 @@ pub async fn run(
     effective_config: &str,
     shutdown: Shutdown,
 ) -> Result<RunStats, PipelineError> {
-    // Everything that can fail is set up before anything starts: nothing leaks on an error.
-    let detector: Box<dyn Detector> = match &settings.detector {
+    // The detector and the tracker are set up first: they fail before any thread or socket
+    // exists. What can still fail later (the link, the frame source) is set up after the
+    // recorder and the link; each of those failures stops what was already started (the
+    // recorder is finished, the link's tasks and the capture thread are stopped) before the
+    // error is returned.
+    let detector: Box<dyn DetectStage> = match &settings.detector {
         DetectorSettings::Replay {
             detections,
             first_image_id,
-        } => Box::new(ReplayDetector::load(detections, *first_image_id)?),
-        DetectorSettings::Onnx(onnx) => Box::new(OnnxDetector::load(onnx.clone())?),
+        } => Box::new(ReplayStage::load(detections, *first_image_id)?),
+        DetectorSettings::Onnx(onnx) => Box::new(OnnxStage::load(onnx.clone())?),
     };
     let tracker = Tracker::new(settings.tracker.clone())
         .map_err(|e| PipelineError::Tracker(e.to_string()))?;
@@ -65,7 +69,7 @@ pub async fn run(
     let mut link_settings = link_settings(&settings.mavlink);
     link_settings.tap = recorder.as_ref().map(|r| recording::packet_tap(r.sink()));
     let (link, inbox, outputs) =
-        match link::bridge::start(link_settings, settings.outputs.target_absolute) {
+        match mavlink_edge::bridge::start(link_settings, settings.outputs.target_absolute) {
             Ok(l) => l,
             Err(e) => {
                 if let Some(r) = recorder {
@@ -155,15 +159,19 @@ pub async fn run(
             let stats = tokio::task::spawn_blocking(move || frame_step.join()).await;
             stop_trigger.fire();
             join_capture(capture).await;
-            let mut stats = stats
+            // A panicked frame step is an error, but the link and the recorder below are
+            // still closed.
+            stats
                 .ok()
                 .and_then(Result::ok)
-                .ok_or(PipelineError::Panicked("frame-step"))?;
-            stats.frames_captured = captured.load(Ordering::Relaxed);
-            if let Ok(l) = latency.lock() {
-                stats.latency = l.total();
-            }
-            Ok(stats)
+                .ok_or(PipelineError::Panicked("frame-step"))
+                .map(|mut stats| {
+                    stats.frames_captured = captured.load(Ordering::Relaxed);
+                    if let Ok(l) = latency.lock() {
+                        stats.latency = l.total();
+                    }
+                    stats
+                })
         }
         Err(e) => {
             stop_trigger.fire();
@@ -285,7 +293,7 @@ async fn join_capture(capture: std::thread::JoinHandle<()>) {
 /// The link's settings from the configuration.
 fn link_settings(m: &MavlinkSettings) -> LinkSettings {
     let streams = if m.stream_rate_hz > 0.0 {
-        link::STREAMS
+        mavlink_edge::STREAMS
             .iter()
             .map(|&(id, rate)| (id, rate.unwrap_or(m.stream_rate_hz)))
             .collect()

@@ -3,7 +3,6 @@
 //! size cap, and reading one back (tolerating a record cut short by a crash).
 
 use super::format::{EndRecord, FlightInfo, FrameRecord, GapRecord, Record, FORMAT, VERSION};
-use super::recorder::append;
 use super::tlog::{self, TlogEntry};
 use super::RecordError;
 use sha2::{Digest, Sha256};
@@ -32,6 +31,14 @@ pub(super) struct FlightFiles {
     pub tlog_len: u64,
     /// Bytes of whole entries written into the buffer (in the file after a flush).
     pub tlog_len_buffered: u64,
+}
+
+/// Opens `path` for appending.
+fn append(path: &Path) -> std::io::Result<File> {
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RecordError + '_ {

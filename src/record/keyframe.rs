@@ -1,7 +1,6 @@
 //! Keyframes: a frame downscaled to `recording.keyframe_width_px` and written as JPEG (in
 //! the recorder's thread, off the frame path).
 
-use super::recorder::KeyframeImage;
 use fast_image_resize::images::Image;
 use fast_image_resize::{PixelType, ResizeOptions, Resizer};
 use image::codecs::jpeg::JpegEncoder;
@@ -10,6 +9,17 @@ use std::path::Path;
 
 /// JPEG quality of keyframes (they are for people, not for the detector).
 const QUALITY: u8 = 80;
+
+/// A frame's pixels for a keyframe (packed RGB24).
+#[derive(Debug, Clone)]
+pub struct KeyframeImage {
+    /// Width (px).
+    pub width_px: u32,
+    /// Height (px).
+    pub height_px: u32,
+    /// Packed RGB24.
+    pub rgb: Vec<u8>,
+}
 
 /// Downscales `k` to at most `width_px` wide (keeping the aspect) and writes it as JPEG.
 pub fn write(path: &Path, mut k: KeyframeImage, width_px: u32) -> io::Result<()> {

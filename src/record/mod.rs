@@ -10,9 +10,8 @@ mod recorder;
 pub mod tlog;
 
 pub use flight::Flight;
-pub use recorder::{
-    unix_us_now, Announce, Closed, KeyframeImage, RecordSink, Recorder, RETRY_EVERY,
-};
+pub use keyframe::KeyframeImage;
+pub use recorder::{unix_us_now, Announce, Closed, RecordSink, Recorder, RETRY_EVERY};
 
 use std::path::PathBuf;
 

@@ -20,6 +20,7 @@
 
 use super::flight::{self, FlightFiles};
 use super::format::{EndRecord, FrameRecord, GapRecord, Record};
+use super::keyframe::KeyframeImage;
 use super::tlog;
 use super::RecordError;
 use crate::config::RecordingSettings;
@@ -47,17 +48,6 @@ const IDLE_SYNC: Duration = Duration::from_millis(200);
 
 /// Says something to the operator (STATUSTEXT) and the log.
 pub type Announce = Box<dyn Fn(Notice) + Send>;
-
-/// A frame's pixels for a keyframe (packed RGB24).
-#[derive(Debug, Clone)]
-pub struct KeyframeImage {
-    /// Width (px).
-    pub width_px: u32,
-    /// Height (px).
-    pub height_px: u32,
-    /// Packed RGB24.
-    pub rgb: Vec<u8>,
-}
 
 /// What [`Recorder::finish`] tells: the end record of the folder recording ended in.
 #[derive(Debug, Clone)]
@@ -601,14 +591,6 @@ fn record_line(r: &Record) -> io::Result<Vec<u8>> {
     let mut line = serde_json::to_vec(r).map_err(io::Error::other)?;
     line.push(b'\n');
     Ok(line)
-}
-
-/// Opens `path` for appending.
-pub(super) fn append(path: &Path) -> io::Result<File> {
-    std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
 }
 
 #[cfg(test)]

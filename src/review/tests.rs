@@ -1,8 +1,11 @@
+use super::build::{footprint, segments_of, thin, EDGE_SAMPLES};
 use super::health::Health;
 use super::truth::ErrorStats;
 use super::*;
 use crate::geo::attitude::camera_from_heading_pitch_deg;
+use crate::geo::{Geodetic, LocalTangentFrame};
 use crate::mavlink::dialect::{MavMessage, TIMESYNC_DATA};
+use crate::record::format::FrameRecord;
 use crate::record::format::PoseRecord;
 use crate::record::tlog::TlogEntry;
 use crate::track::MergeEvent;
