@@ -9,9 +9,20 @@
 #   mgmot-sim follow --frames unix:frames.sock --> mgmot run
 #
 # Usage: scripts/bench_sitl.sh ARDUPILOT_DIR [--out DIR] [--router PATH_TO_mavlink-routerd]
+#                              [--bin-dir DIR] [--python PY]
+#                              [--reboot-at S [--reboot-landed | --reboot-dry-run]]
 #
-# ARDUPILOT_DIR holds a built ArduCopter SITL (build/sitl/bin/arducopter; see the README's
-# "Bench rehearsal with ArduPilot SITL"). The vehicle gets firmware-config/ardupilot/
+# --bin-dir DIR: use DIR/mgmot and DIR/mgmot-sim as they are (no setup.sh, no cargo build;
+# default: build them with cargo into target/release). --python PY: the Python with pymavlink
+# for the ground station and the report (default: .venv/bin/python3, created when missing).
+# --reboot-at S: the ground station reboots the autopilot S seconds after it starts
+# (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN; in the air, forced, unless --reboot-landed: land and
+# disarm first), waits for it to come back and flies the pattern again; mgmot, follow and the
+# router keep running. The report then compares the tracks before and after the reboot.
+# --reboot-dry-run: the same flight without the reboot (lands and disarms at S, flies again).
+#
+# ARDUPILOT_DIR holds a built ArduCopter SITL (build/sitl/bin/arducopter; see
+# docs/sitl-bench.md). The vehicle gets firmware-config/ardupilot/
 # mgmot-servo-gimbal.parm on top of SITL's copter defaults. Prints, at the end: messages per
 # type and rate at each tap, the TIMESYNC offsets, camera pose against SITL's own state,
 # geolocation error of every reported track, and which of mgmot's messages reached each ground
@@ -23,17 +34,25 @@ repo=$PWD
 ap_dir=""
 out=""
 router="${MAVLINK_ROUTERD:-}"
+bin_dir=""
+python=""
+fly_args=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
     --router) router="$2"; shift 2 ;;
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+    --bin-dir) bin_dir="$2"; shift 2 ;;
+    --python) python="$2"; shift 2 ;;
+    --reboot-at) fly_args+=(--reboot-at "$2"); shift 2 ;;
+    --reboot-landed) fly_args+=(--reboot-landed); shift ;;
+    --reboot-dry-run) fly_args+=(--reboot-dry-run); shift ;;
+    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
     *) if [ -z "$ap_dir" ]; then ap_dir="$1"; shift; else echo "bench: unexpected argument $1" >&2; exit 2; fi ;;
   esac
 done
 if [ -z "$ap_dir" ] || [ ! -x "$ap_dir/build/sitl/bin/arducopter" ]; then
   echo "bench: usage: scripts/bench_sitl.sh ARDUPILOT_DIR; ARDUPILOT_DIR/build/sitl/bin/arducopter must exist" >&2
-  echo "       (./waf configure --board sitl && ./waf copter in an ArduPilot checkout; see the README)" >&2
+  echo "       (./waf configure --board sitl && ./waf copter in an ArduPilot checkout; see docs/sitl-bench.md)" >&2
   exit 2
 fi
 ap_dir=$(cd "$ap_dir" && pwd)
@@ -46,11 +65,25 @@ out=${out:-$(mktemp -d "${TMPDIR:-/tmp}/mgmot-sitl.XXXXXX")}
 mkdir -p "$out"
 echo "bench: output in $out"
 
-bash scripts/setup.sh >/dev/null
-if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import pymavlink" 2>/dev/null; then
-  python3 -m venv .venv && .venv/bin/python3 -m pip install -q -r scripts/requirements-test.txt
+if [ -n "$bin_dir" ]; then
+  bin_dir=$(cd "$bin_dir" && pwd)
+  for b in mgmot mgmot-sim; do
+    if [ ! -x "$bin_dir/$b" ]; then echo "bench: $bin_dir/$b not found" >&2; exit 2; fi
+  done
+else
+  bash scripts/setup.sh >/dev/null
+  cargo build --release -q -p mgmot -p mgmot-sim
+  bin_dir=$repo/target/release
 fi
-cargo build --release -q -p mgmot -p mgmot-sim
+if [ -z "$python" ]; then
+  if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import pymavlink" 2>/dev/null; then
+    python3 -m venv .venv && .venv/bin/python3 -m pip install -q -r scripts/requirements-test.txt
+  fi
+  python=.venv/bin/python3
+elif ! "$python" -c "import pymavlink" 2>/dev/null; then
+  echo "bench: $python has no pymavlink" >&2
+  exit 2
+fi
 ort=""
 if ort=$(bash scripts/detect_fetch_onnxruntime.sh 2>/dev/null); then backend=onnxruntime; else backend=tract; fi
 
@@ -113,20 +146,20 @@ EOF
 if [ "$backend" = onnxruntime ]; then echo "ort_library = \"$ort\"" >> "$out/mgmot.toml"; fi
 printf '\n[recording]\ndir = "%s/flights"\nkeyframe_every_s = 5.0\n' "$out" >> "$out/mgmot.toml"
 
-.venv/bin/python3 scripts/bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out "$out" &
+"$python" scripts/bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out "$out" ${fly_args[@]+"${fly_args[@]}"} &
 fly=$!
 pids+=($fly)
 sleep 3
 "$router" -c "$out/router.conf" > "$out/router.log" 2>&1 &
 pids+=($!)
-target/release/mgmot-sim follow -s calm_baseline --mavlink udpin:127.0.0.1:14552 \
+"$bin_dir/mgmot-sim" follow -s calm_baseline --mavlink udpin:127.0.0.1:14552 \
   --frames "unix:$out/frames.sock" --gimbal-report body --duration-s 600 \
   --truth-out "$out/truth" --track-report "$out/track_report.json" > "$out/follow.log" 2>&1 &
 follow=$!
 pids+=($follow)
 # Flights an earlier run left in the same --out: the replay and review below take this run's.
 earlier_flights=$(for f in "$out"/flights/*/; do if [ -d "$f" ]; then echo "$f"; fi; done)
-target/release/mgmot run -v --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
+"$bin_dir/mgmot" run -v --config "$out/mgmot.toml" --stats-json "$out/mgmot_stats.json" > "$out/mgmot.log" 2>&1 &
 mgmot=$!
 pids+=($mgmot)
 
@@ -135,7 +168,7 @@ wait "$fly" || fly_rc=$?
 if [ "$fly_rc" -ne 0 ]; then echo "bench: the flight script failed (exit $fly_rc); reporting what was recorded" >&2; fi
 kill -INT "$mgmot" "$follow" 2>/dev/null || true
 wait "$mgmot" "$follow" 2>/dev/null || true
-.venv/bin/python3 scripts/bench_sitl_report.py "$out"
+"$python" scripts/bench_sitl_report.py "$out"
 # The flight mgmot recorded (its tlog holds ArduPilot's own packets): replayed, and reviewed
 # against the simulator's truth.
 # Flight folders are named after their UTC start, so the newest one this run made sorts last.
@@ -145,8 +178,8 @@ for f in "$out"/flights/*/; do
   case $'\n'"$earlier_flights"$'\n' in *$'\n'"$f"$'\n'*) ;; *) flight=$f ;; esac
 done
 if [ -n "$flight" ]; then
-  target/release/mgmot replay "$flight" --out "$out/replay" | sed 's/^/replay: /'
-  target/release/mgmot review "$flight" --truth "$out/truth" --out "$out/report/report.html" | sed 's/^/review: /'
+  "$bin_dir/mgmot" replay "$flight" --out "$out/replay" | sed 's/^/replay: /'
+  "$bin_dir/mgmot" review "$flight" --truth "$out/truth" --out "$out/report/report.html" | sed 's/^/review: /'
 else
   echo "bench: mgmot recorded no flight in this run (see $out/mgmot.log)" >&2
 fi
