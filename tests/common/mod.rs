@@ -1,6 +1,7 @@
 //! The one harness of the integration tests, in the manner of ripgrep's `tests/util.rs`:
 //!
-//! - [`TestDir`]: a temporary folder per test, removed when the test passes, kept (and its path
+//! - [`TestDir`]: a temporary folder per test (`mgmot_testkit`'s, shared with the simulator's
+//!   tests), removed when the test passes, kept (and its path
 //!   printed) when the test fails or `MGMOT_KEEP_TEST_DIRS=1` is set, to look at the configs,
 //!   logs and stats a failed run left;
 //! - [`mgmot`] and [`sim`]: command builders ([`TestCommand`]) for the two binaries, and
@@ -18,12 +19,12 @@
 
 mod relay;
 
+pub use mgmot_testkit::free_udp_port;
 pub use relay::{Relay, Sent};
 
 use mgmot::config::{Config, DetectorConfig, FramesConfig};
 use std::ffi::OsStr;
 use std::io::Read;
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::OnceLock;
@@ -36,35 +37,15 @@ pub const BOOT_TIME_S: f64 = 120.0;
 /// of metres, where it is good to millimetres).
 pub const M_PER_DEG: f64 = 111_320.0;
 
-/// A temporary folder for one test: removed when it is dropped, unless the test is failing
-/// (the drop happens while it panics) or `MGMOT_KEEP_TEST_DIRS` is set (to anything but `0`):
-/// then it stays, and its path is printed on stderr, which the test's output shows.
-pub struct TestDir {
-    dir: tempfile::TempDir,
-}
+/// A test's temporary folder ([`mgmot_testkit::TestDir`]: kept when the test fails), with
+/// the runtime's configurations written into it.
+#[derive(Default)]
+pub struct TestDir(mgmot_testkit::TestDir);
 
 impl TestDir {
+    /// A new, empty folder.
     pub fn new() -> TestDir {
-        let dir = tempfile::Builder::new()
-            .prefix("mgmot-test-")
-            .tempdir()
-            .expect("creating a temporary folder");
-        TestDir { dir }
-    }
-
-    pub fn path(&self) -> &Path {
-        self.dir.path()
-    }
-
-    pub fn join(&self, path: impl AsRef<Path>) -> PathBuf {
-        self.dir.path().join(path)
-    }
-
-    /// Writes `contents` to `name` in the folder; its path.
-    pub fn write(&self, name: impl AsRef<Path>, contents: impl AsRef<[u8]>) -> PathBuf {
-        let path = self.join(name);
-        std::fs::write(&path, contents).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        path
+        TestDir(mgmot_testkit::TestDir::new())
     }
 
     /// Writes `config` as TOML to `name` in the folder; its path.
@@ -80,20 +61,11 @@ impl TestDir {
     }
 }
 
-impl Default for TestDir {
-    fn default() -> Self {
-        Self::new()
-    }
-}
+impl std::ops::Deref for TestDir {
+    type Target = mgmot_testkit::TestDir;
 
-impl Drop for TestDir {
-    fn drop(&mut self) {
-        let asked =
-            std::env::var_os("MGMOT_KEEP_TEST_DIRS").is_some_and(|v| !v.is_empty() && v != "0");
-        if std::thread::panicking() || asked {
-            self.dir.disable_cleanup(true);
-            eprintln!("test folder kept: {}", self.dir.path().display());
-        }
+    fn deref(&self) -> &Self::Target {
+        &self.0
     }
 }
 
@@ -415,15 +387,6 @@ impl Drop for Proc {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-/// A UDP port free right now on loopback.
-pub fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// A simulator scenario: a shipped name or a scenario file, a length, and optionally a frame

@@ -16,53 +16,15 @@
 use mgmot_sim::framing::{FrameHeader, HEADER_LEN};
 use mgmot_wire::sim_framing::is_end_of_stream;
 use std::io::Read;
-use std::net::{TcpListener, UdpSocket};
 use std::os::unix::net::UnixStream;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, ChildStderr, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
 
+pub use mgmot_testkit::{free_tcp_port, free_udp_port, TestDir};
+
 /// The `mgmot-sim` binary this test build built.
 pub const SIM_BIN: &str = env!("CARGO_BIN_EXE_mgmot-sim");
-
-/// A temporary folder for one test: removed when it is dropped, unless the test is failing
-/// (the drop happens while it panics) or `MGMOT_KEEP_TEST_DIRS` is set (to anything but `0`):
-/// then it stays, and its path is printed on stderr, which the test's output shows.
-pub struct TestDir {
-    dir: tempfile::TempDir,
-}
-
-impl TestDir {
-    /// A new, empty folder.
-    pub fn new() -> TestDir {
-        let dir = tempfile::Builder::new()
-            .prefix("mgmot-sim-test-")
-            .tempdir()
-            .expect("creating a temporary folder");
-        TestDir { dir }
-    }
-
-    /// The folder.
-    pub fn path(&self) -> &Path {
-        self.dir.path()
-    }
-
-    /// `path` inside the folder.
-    pub fn join(&self, path: impl AsRef<Path>) -> PathBuf {
-        self.dir.path().join(path)
-    }
-}
-
-impl Drop for TestDir {
-    fn drop(&mut self) {
-        let asked =
-            std::env::var_os("MGMOT_KEEP_TEST_DIRS").is_some_and(|v| !v.is_empty() && v != "0");
-        if std::thread::panicking() || asked {
-            self.dir.disable_cleanup(true);
-            eprintln!("test folder kept: {}", self.dir.path().display());
-        }
-    }
-}
 
 /// `mgmot-sim` with `args`, logging warnings and errors (`RUST_LOG=warn`), stdin closed.
 pub fn sim(args: &[&str]) -> Command {
@@ -159,24 +121,6 @@ impl Drop for Proc {
             let _ = child.wait();
         }
     }
-}
-
-/// A TCP port free right now on loopback.
-pub fn free_tcp_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// A UDP port free right now on loopback.
-pub fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Connects to the simulator's frame socket `path`, retrying for up to 20 s while the
