@@ -12,7 +12,7 @@ use super::transport::Connection;
 use crate::mavlink::dialect::{self, MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA};
 use crate::mavlink::signing::Refusal;
 use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs, StampVerdict};
-use mavlink_core::{MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, Message, MessageData};
+use mavlink_core::{MAVLinkMessageRaw, Message, MessageData};
 use std::net::SocketAddr;
 use std::time::Instant;
 
@@ -376,18 +376,7 @@ impl LinkTask {
             target_system,
             target_component,
         });
-        let header = MavHeader {
-            system_id: u32::from(self.settings.system_id),
-            component_id: self.settings.component_id,
-            sequence: self.sequence,
-        };
-        self.sequence = self.sequence.wrapping_add(1);
-        let mut raw = MAVLinkV2MessageRaw::new();
-        if self.signer.is_some() {
-            raw.serialize_message_for_signing(header, &ack);
-        } else {
-            raw.serialize_message(header, &ack);
-        }
+        let mut raw = self.serialize(&ack);
         let len = usize::from(raw.payload_length());
         let bytes = raw.as_mut_slice();
         bytes[10..12].copy_from_slice(&command.to_le_bytes());

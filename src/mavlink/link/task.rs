@@ -219,7 +219,9 @@ impl LinkTask {
         }
     }
 
-    pub(super) fn encode(&mut self, message: &MavMessage) -> MAVLinkV2MessageRaw {
+    /// `message` under our header and next sequence number, laid out for signing when
+    /// signing is on, not yet signed.
+    pub(super) fn serialize(&mut self, message: &MavMessage) -> MAVLinkV2MessageRaw {
         let header = MavHeader {
             system_id: u32::from(self.settings.system_id),
             component_id: self.settings.component_id,
@@ -227,12 +229,19 @@ impl LinkTask {
         };
         self.sequence = self.sequence.wrapping_add(1);
         let mut raw = MAVLinkV2MessageRaw::new();
-        match &mut self.signer {
-            Some(signer) => {
-                raw.serialize_message_for_signing(header, message);
-                signer.sign(&mut raw);
-            }
-            None => raw.serialize_message(header, message),
+        if self.signer.is_some() {
+            raw.serialize_message_for_signing(header, message);
+        } else {
+            raw.serialize_message(header, message);
+        }
+        raw
+    }
+
+    /// `message` ready to send: serialized and, when signing is on, signed.
+    pub(super) fn encode(&mut self, message: &MavMessage) -> MAVLinkV2MessageRaw {
+        let mut raw = self.serialize(message);
+        if let Some(signer) = &mut self.signer {
+            signer.sign(&mut raw);
         }
         raw
     }
