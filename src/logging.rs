@@ -50,9 +50,11 @@ pub fn init(default_level: tracing::Level, verbose: u8) {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
         tracing_subscriber::EnvFilter::new(level.as_str().to_ascii_lowercase())
     });
+    // Colours only on a terminal: in the journal, a file or a pipe they are escape codes.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
 }
 

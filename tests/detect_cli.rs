@@ -237,7 +237,7 @@ fn flight_day_6_onnxruntime_says_nothing_below_warn() {
         .arg(&lib)
         .env("RUST_LOG", "info")
         .output();
-    let stderr = strip_ansi(&String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     // ort's own forwarding put ONNX Runtime's lines in an `ort{...}` span, target
     // `ort::logging`; mgmot's puts them under target `ort`.
@@ -257,20 +257,18 @@ fn flight_day_6_onnxruntime_says_nothing_below_warn() {
     assert!(stderr.contains("loaded ONNX Runtime"), "{stderr}");
 }
 
-/// `text` without ANSI colour sequences (`ESC [ ... m`).
-fn strip_ansi(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut chars = text.chars();
-    while let Some(c) = chars.next() {
-        if c == '\u{1b}' {
-            for c in chars.by_ref() {
-                if c.is_ascii_alphabetic() {
-                    break;
-                }
-            }
-        } else {
-            out.push(c);
-        }
-    }
-    out
+/// Off a terminal (the journal, a file, a pipe) the log carries no ANSI colour codes: they
+/// showed as escape sequences in `journalctl` and in the demo's log files.
+#[test]
+fn the_log_has_no_colour_codes_off_a_terminal() {
+    let out = mgmot()
+        .args(["-v", "detect", "--model"])
+        .arg(repo_file(FP32))
+        .arg(fixtures())
+        .args(["--backend", "tract"])
+        .output();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("INFO"), "no log line to look at: {stderr}");
+    assert!(!stderr.contains('\u{1b}'), "colour codes: {stderr:?}");
 }
