@@ -300,6 +300,19 @@ fn now_signing() -> u64 {
     mgmot::mavlink::signing::signing_now()
 }
 
+/// A `udpin` link on a free loopback port, signing with [`KEY`] (link id 3) and keeping its
+/// timestamps in `state`; the address to send to it.
+fn signed_udpin(state: &std::path::Path) -> (SocketAddr, LinkSettings) {
+    let port = free_udp_port();
+    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
+    s.signing = Some(SigningSettings {
+        key: KEY,
+        link_id: 3,
+        state_file: Some(state.to_path_buf()),
+    });
+    (([127, 0, 0, 1], port).into(), s)
+}
+
 /// Item 4: one signed frame stamped 120 s ahead is refused, correctly timed frames after it
 /// still pass, and mgmot's own signing timestamps stay on its clock; a signed command
 /// captured before a restart is refused after it (the state file).
@@ -307,14 +320,7 @@ fn now_signing() -> u64 {
 async fn item4_signing_clock_cannot_be_pushed_and_survives_restarts() {
     let dir = TestDir::new();
     let state = dir.path().join("signing.json");
-    let port = free_udp_port();
-    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
-    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
-    s.signing = Some(SigningSettings {
-        key: KEY,
-        link_id: 3,
-        state_file: Some(state.clone()),
-    });
+    let (addr, s) = signed_udpin(&state);
     let (link, sender, mut events) = start(s.clone());
     let autopilot = Peer::new();
     tokio::time::sleep(Duration::from_millis(200)).await;
@@ -409,14 +415,7 @@ async fn issue39_item11_a_signed_command_is_persisted_before_it_is_acted_on() {
     let dir = TestDir::new();
     let state = dir.path().join("signing.json");
     let at_kill = dir.path().join("signing-at-kill.json");
-    let port = free_udp_port();
-    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
-    let mut s = settings(format!("udpin:127.0.0.1:{port}"));
-    s.signing = Some(SigningSettings {
-        key: KEY,
-        link_id: 3,
-        state_file: Some(state.clone()),
-    });
+    let (addr, s) = signed_udpin(&state);
     let (link, _sender, mut events) = start(s.clone());
     let autopilot = Peer::new();
     tokio::time::sleep(Duration::from_millis(100)).await;

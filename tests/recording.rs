@@ -255,6 +255,40 @@ fn a_flight_killed_with_sigkill_replays_up_to_its_last_whole_frame() {
 }
 
 /// The statustexts mgmot sent, in order.
+/// A recorded `calm_baseline` run behind the relay (which sees what mgmot sends): its folder,
+/// scenario (640x360, `seconds` long), frame socket, relay, the recording's parent folder
+/// `rec` (created) and the run's configuration recording into `rec/flights`.
+struct Relayed {
+    dir: TestDir,
+    scenario: Scenario,
+    socket: PathBuf,
+    relay: common::Relay,
+    rec: PathBuf,
+    config: mgmot::config::Config,
+}
+
+fn relayed(seconds: f64) -> Relayed {
+    let dir = TestDir::new();
+    let scenario = Scenario::new("calm_baseline", seconds).size(640, 360);
+    let dets = dir.join("dets.json");
+    scenario.detections(&dets);
+    let socket = dir.join("frames.sock");
+    let port = free_udp_port();
+    let relay = common::Relay::start(port);
+    let rec = dir.join("rec");
+    std::fs::create_dir_all(&rec).unwrap();
+    let mut config = run_config(&format!("udpin:127.0.0.1:{port}"), &socket, &dets);
+    config.recording.dir = Some(rec.join("flights"));
+    Relayed {
+        dir,
+        scenario,
+        socket,
+        relay,
+        rec,
+        config,
+    }
+}
+
 fn statustexts(relay: &common::Relay) -> Vec<String> {
     use mgmot::mavlink::dialect::MavMessage;
     relay
@@ -290,17 +324,14 @@ fn a_full_disk_stops_recording_without_stopping_tracking_and_recording_resumes()
         ),
         Err(e) => common::missing_tool("a_full_disk", &format!("unshare (util-linux): {e}")),
     }
-    let dir = TestDir::new();
-    let scenario = Scenario::new("calm_baseline", 30.0).size(640, 360);
-    let dets = dir.join("dets.json");
-    scenario.detections(&dets);
-    let socket = dir.join("frames.sock");
-    let port = free_udp_port();
-    let relay = common::Relay::start(port);
-    let rec = dir.join("rec");
-    std::fs::create_dir_all(&rec).unwrap();
-    let mut c = run_config(&format!("udpin:127.0.0.1:{port}"), &socket, &dets);
-    c.recording.dir = Some(rec.join("flights"));
+    let Relayed {
+        dir,
+        scenario,
+        socket,
+        relay,
+        rec,
+        config: mut c,
+    } = relayed(30.0);
     c.recording.keyframe_every_s = 0.0;
     let cfg = dir.write_config("mgmot.toml", &c);
     let log = dir.join("mgmot.log");
@@ -420,18 +451,15 @@ exit $status
 #[test]
 fn a_read_only_recording_folder_at_start_is_said_to_the_operator() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = TestDir::new();
-    let scenario = Scenario::new("calm_baseline", 8.0).size(640, 360);
-    let dets = dir.join("dets.json");
-    scenario.detections(&dets);
-    let socket = dir.join("frames.sock");
-    let port = free_udp_port();
-    let relay = common::Relay::start(port);
-    let rec = dir.join("rec");
-    std::fs::create_dir_all(&rec).unwrap();
+    let Relayed {
+        dir,
+        scenario,
+        socket,
+        relay,
+        rec,
+        config: c,
+    } = relayed(8.0);
     std::fs::set_permissions(&rec, std::fs::Permissions::from_mode(0o555)).unwrap();
-    let mut c = run_config(&format!("udpin:127.0.0.1:{port}"), &socket, &dets);
-    c.recording.dir = Some(rec.join("flights"));
     let cfg = dir.write_config("mgmot.toml", &c);
     let mut mgmot = common::mgmot_bound_by_permissions();
     mgmot.args(["run", "--config"]).arg(&cfg);
