@@ -3,6 +3,7 @@
 use crate::common;
 
 use common::{example_config_here, example_config_with_detector, mgmot, repo_file, TestDir};
+use std::path::Path;
 
 #[test]
 fn example_config_is_ok() {
@@ -96,6 +97,21 @@ fn flight_day_12_check_config_fails_on_a_missing_model() {
     assert!(!out.status.success());
 }
 
+/// Runs `mgmot check-config` on `config` with `ORT_DYLIB_PATH` set to `ort_dylib` (or unset),
+/// fails the test if it passes, and returns what it said on stderr.
+fn check_config_refused(config: &Path, ort_dylib: Option<&Path>) -> String {
+    let mut cmd = mgmot();
+    cmd.arg("check-config").arg(config);
+    match ort_dylib {
+        Some(p) => cmd.env("ORT_DYLIB_PATH", p),
+        None => cmd.env_remove("ORT_DYLIB_PATH"),
+    };
+    let out = cmd.output();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "check-config passed: {stderr}");
+    stderr
+}
+
 /// Issue 39 item 12: the ONNX Runtime library of `backend = "onnxruntime"`, configured or
 /// from `ORT_DYLIB_PATH`, must exist for `check-config` to say ok.
 #[test]
@@ -104,13 +120,7 @@ fn flight_day_12_check_config_fails_on_a_missing_onnxruntime_library() {
     let model = repo_file("models/mgmot-det-int8.onnx");
     let missing = dir.join("lib/libonnxruntime.so");
     let config = example_config_with_detector(&dir, &model, "onnxruntime", Some(&missing));
-    let out = mgmot()
-        .arg("check-config")
-        .arg(&config)
-        .env_remove("ORT_DYLIB_PATH")
-        .output();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "check-config passed: {stderr}");
+    let stderr = check_config_refused(&config, None);
     assert!(
         stderr.contains(&missing.display().to_string())
             && stderr.contains("`detector.ort_library`"),
@@ -118,24 +128,12 @@ fn flight_day_12_check_config_fails_on_a_missing_onnxruntime_library() {
     );
     // Not configured: ORT_DYLIB_PATH names it, or nothing does.
     let config = example_config_with_detector(&dir, &model, "onnxruntime", None);
-    let out = mgmot()
-        .arg("check-config")
-        .arg(&config)
-        .env("ORT_DYLIB_PATH", &missing)
-        .output();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "check-config passed: {stderr}");
+    let stderr = check_config_refused(&config, Some(&missing));
     assert!(
         stderr.contains(&missing.display().to_string()) && stderr.contains("ORT_DYLIB_PATH"),
         "{stderr}"
     );
-    let out = mgmot()
-        .arg("check-config")
-        .arg(&config)
-        .env_remove("ORT_DYLIB_PATH")
-        .output();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "check-config passed: {stderr}");
+    let stderr = check_config_refused(&config, None);
     assert!(stderr.contains("ORT_DYLIB_PATH"), "{stderr}");
     // tract needs no library.
     let config = example_config_with_detector(&dir, &model, "tract", Some(&missing));
