@@ -254,7 +254,6 @@ fn a_flight_killed_with_sigkill_replays_up_to_its_last_whole_frame() {
     assert_eq!(s["frames"], flight.frames.len() - 1);
 }
 
-/// The statustexts mgmot sent, in order.
 /// A recorded `calm_baseline` run behind the relay (which sees what mgmot sends): its folder,
 /// scenario (640x360, `seconds` long), frame socket, relay, the recording's parent folder
 /// `rec` (created) and the run's configuration recording into `rec/flights`.
@@ -287,20 +286,6 @@ fn relayed(seconds: f64) -> Relayed {
         rec,
         config,
     }
-}
-
-fn statustexts(relay: &common::Relay) -> Vec<String> {
-    use mgmot::mavlink::dialect::MavMessage;
-    relay
-        .sent
-        .lock()
-        .unwrap()
-        .iter()
-        .filter_map(|s| match &s.msg {
-            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_owned),
-            _ => None,
-        })
-        .collect()
 }
 
 /// A real full disk: an 8 MB tmpfs, mounted in a private mount namespace (`unshare`, no root
@@ -392,7 +377,7 @@ exit $status
     );
 
     // Said once each, over MAVLink and in the log.
-    let texts = statustexts(&relay);
+    let texts = relay.statustexts();
     let stopped: Vec<_> = texts
         .iter()
         .filter(|t| t.contains("recording stopped"))
@@ -473,7 +458,7 @@ fn a_read_only_recording_folder_at_start_is_said_to_the_operator() {
     let log = mgmot.log();
     assert!(log.contains("cannot record this flight"), "{log}");
     assert!(!rec.join("flights").exists());
-    let texts = statustexts(&relay);
+    let texts = relay.statustexts();
     let off: Vec<_> = texts
         .iter()
         .filter(|t| t.contains("recording off"))

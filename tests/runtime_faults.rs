@@ -289,16 +289,7 @@ fn a_frame_socket_that_appears_later_without_permission_is_reported_once() {
     }
     mgmot.stop(Duration::from_secs(10));
     let log = mgmot.log();
-    let texts: Vec<String> = relay
-        .sent
-        .lock()
-        .unwrap()
-        .iter()
-        .filter_map(|s| match &s.msg {
-            MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_owned),
-            _ => None,
-        })
-        .collect();
+    let texts = relay.statustexts();
     let denied: Vec<_> = texts
         .iter()
         .filter(|t| t.to_lowercase().contains("permission denied"))

@@ -106,6 +106,19 @@ impl Relay {
         }
     }
 
+    /// The texts of the STATUSTEXT messages mgmot sent so far (chunks as sent).
+    pub fn statustexts(&self) -> Vec<String> {
+        self.sent
+            .lock()
+            .unwrap()
+            .iter()
+            .filter_map(|s| match &s.msg {
+                MavMessage::STATUSTEXT(t) => t.text.to_str().ok().map(str::to_owned),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// How many messages mgmot has sent so far (a position to wait from).
     pub fn mark(&self) -> usize {
         self.sent.lock().unwrap().len()
