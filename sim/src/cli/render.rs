@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 pub enum ImageFormat {
     /// Lossless PNG.
     Png,
-    /// JPEG (quality 90).
+    /// JPEG (quality `render.jpeg_quality` of the scenario, default 85).
     Jpg,
     /// No images: ground truth only.
     None,
@@ -148,13 +148,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let pb = progress(n.div_ceil(args.every));
     let mut rgb = vec![0u8; renderer.frame_bytes()];
     let (w, h) = (renderer.width() as u32, renderer.height() as u32);
+    let quality = world.scenario.render.jpeg_quality.clamp(1, 100);
     for index in (0..n).step_by(args.every as usize) {
         let ft = frame_truth(&world, &optics, index);
         let file_name = format!("img1/{:06}.{ext}", index + 1);
         if args.format != ImageFormat::None {
             renderer.render(&world, &optics, ft.t_s, &mut rgb, true);
             let path = args.out.join(&file_name);
-            save_image(&path, &rgb, w, h, args.format)?;
+            save_image(&path, &rgb, w, h, args.format, quality)?;
         }
         truth.add(&world, &optics, &ft, &file_name)?;
         pb.inc(1);
@@ -163,7 +164,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     truth.finish(&world, ext)
 }
 
-fn save_image(path: &Path, rgb: &[u8], w: u32, h: u32, format: ImageFormat) -> anyhow::Result<()> {
+fn save_image(
+    path: &Path,
+    rgb: &[u8],
+    w: u32,
+    h: u32,
+    format: ImageFormat,
+    quality: u8,
+) -> anyhow::Result<()> {
     let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut out = BufWriter::new(file);
     match format {
@@ -176,7 +184,7 @@ fn save_image(path: &Path, rgb: &[u8], w: u32, h: u32, format: ImageFormat) -> a
             image::ImageEncoder::write_image(enc, rgb, w, h, image::ExtendedColorType::Rgb8)
         }
         ImageFormat::Jpg => {
-            let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 90);
+            let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality);
             image::ImageEncoder::write_image(enc, rgb, w, h, image::ExtendedColorType::Rgb8)
         }
         ImageFormat::None => return Ok(()),

@@ -107,6 +107,9 @@ pub struct Scenario {
     /// Parameters of the detection simulator.
     #[serde(default)]
     pub detector: Detector,
+    /// Switches and levels of the frame renderer's realism features.
+    #[serde(default)]
+    pub render: Render,
 }
 
 fn default_seed() -> u64 {
@@ -348,6 +351,82 @@ impl Default for Camera {
             hfov_deg: 70.0,
             fps: 30.0,
             capture_latency_ms: 40.0,
+        }
+    }
+}
+
+/// Switches and levels of the frame renderer (`[render]`): every feature is on at a
+/// realistic level by default; turn them off to get clean, synthetic-looking frames.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Render {
+    /// Per-object variants (hull shapes, swimmer poses, buoy kinds, ring bands); off: one
+    /// look per class.
+    pub object_variety: bool,
+    /// Sun-side / shadow-side shading, highlights and waterline shadows of objects.
+    pub object_shading: bool,
+    /// Foam wakes behind moving boats and jetskis.
+    pub wakes: bool,
+    /// Whitecaps and foam streaks, growing with `sea.wave_height_m` (none below ~0.4 m).
+    pub whitecaps: bool,
+    /// Sky reflection on the water by the Fresnel law (more sky towards the horizon).
+    pub sky_reflection: bool,
+    /// Large-scale colour variation of the water (patches of bluer / greener / greyer sea).
+    pub color_variation: bool,
+    /// Sensor noise level (0: none; 1: a typical small drone camera in daylight).
+    pub camera_noise: f64,
+    /// Slow, seeded exposure and white-balance drift.
+    pub exposure_drift: bool,
+    /// Darkening towards the corners, 0 (none) to 1 (strong).
+    pub vignetting: f64,
+    /// Slight lens blur (a 3x3 kernel over the whole frame).
+    pub defocus: bool,
+    /// Motion blur along the image motion of the sea during the exposure (from the drone's
+    /// and the gimbal's rates); only in frames rendered from the scenario's own flight.
+    pub motion_blur: bool,
+    /// Exposure time used for the motion blur, seconds.
+    pub exposure_s: f64,
+    /// JPEG quality of `mgmot-sim render --format jpg`, 1 to 100.
+    pub jpeg_quality: u8,
+}
+
+impl Default for Render {
+    fn default() -> Self {
+        Self {
+            object_variety: true,
+            object_shading: true,
+            wakes: true,
+            whitecaps: true,
+            sky_reflection: true,
+            color_variation: true,
+            camera_noise: 1.0,
+            exposure_drift: true,
+            vignetting: 0.25,
+            defocus: true,
+            motion_blur: true,
+            exposure_s: 1.0 / 250.0,
+            jpeg_quality: 85,
+        }
+    }
+}
+
+impl Render {
+    /// Every realism feature off: flat objects, plain sea, no camera effects (quality 90).
+    pub fn off() -> Render {
+        Render {
+            object_variety: false,
+            object_shading: false,
+            wakes: false,
+            whitecaps: false,
+            sky_reflection: false,
+            color_variation: false,
+            camera_noise: 0.0,
+            exposure_drift: false,
+            vignetting: 0.0,
+            defocus: false,
+            motion_blur: false,
+            exposure_s: 1.0 / 250.0,
+            jpeg_quality: 90,
         }
     }
 }

@@ -3,7 +3,7 @@
 
 use super::{
     Camera, Detector, Drone, EventKind, Faults, FieldProblem, Gimbal, GimbalMode, ObjectClass,
-    Path2d, Scenario, ScenarioError, Sea, Telemetry,
+    Path2d, Render, Scenario, ScenarioError, Sea, Telemetry,
 };
 
 /// The problems found so far by [`Scenario::validate`].
@@ -37,6 +37,7 @@ impl Scenario {
         check_faults(&self.faults, &mut p);
         check_telemetry(&self.telemetry, &mut p);
         check_detector(&self.detector, &mut p);
+        check_render(&self.render, &mut p);
         if p.0.is_empty() {
             Ok(())
         } else {
@@ -412,6 +413,30 @@ fn check_sea(s: &Sea, p: &mut Problems) {
         finite(s.glint) && (0.0..=1.0).contains(&s.glint),
         "sea.glint",
         "must be within [0, 1]",
+    );
+}
+
+/// `render.*`.
+fn check_render(r: &Render, p: &mut Problems) {
+    p.require(
+        finite(r.camera_noise) && (0.0..=10.0).contains(&r.camera_noise),
+        "render.camera_noise",
+        "must be within [0, 10]",
+    );
+    p.require(
+        finite(r.vignetting) && (0.0..=1.0).contains(&r.vignetting),
+        "render.vignetting",
+        "must be within [0, 1]",
+    );
+    p.require(
+        finite(r.exposure_s) && (0.0..=0.1).contains(&r.exposure_s),
+        "render.exposure_s",
+        "must be within [0, 0.1]",
+    );
+    p.require(
+        (1..=100).contains(&r.jpeg_quality),
+        "render.jpeg_quality",
+        "must be within [1, 100]",
     );
 }
 
