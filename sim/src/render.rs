@@ -8,8 +8,11 @@
 //! over time, give moving waves. Objects: their 3D parts are projected with
 //! [`mgmot_core::geo::CameraModel::project_to_image`] and filled as convex silhouettes, far to near.
 
+mod camera;
+mod draw;
+
 use crate::objects::ObjectState;
-use crate::scenario::{ObjectClass, Scenario};
+use crate::scenario::Scenario;
 use crate::truth::Optics;
 use crate::world::World;
 use mgmot_core::geo::{CameraPose, Pixel};
@@ -29,6 +32,8 @@ const LUT: usize = 1024;
 
 /// RNG stream of the textures.
 const STREAM_TEXTURE: u64 = 3;
+/// RNG stream of the foam and colour-variation textures and the sea's colour offset.
+const STREAM_SEA_DETAIL: u64 = 5;
 
 /// Bytes per pixel of the output (packed RGB24).
 pub const BYTES_PER_PIXEL: usize = 3;
@@ -42,6 +47,20 @@ pub struct Renderer {
     swell: Box<Texture>,
     /// Chop texture: isotropic fine ripples (also the glint sparkle mask).
     chop: Box<Texture>,
+    /// Whitecap and foam-streak opacity, on the swell texture's grid (`None`: no foam).
+    foam: Option<Box<Texture>>,
+    /// Large-scale colour variation (brightness in R, G-B balance from a second offset).
+    tint: Box<Texture>,
+    /// Strength of the colour variation (0: off).
+    tint_amp: f32,
+    /// Fresnel sky reflection on.
+    sky_reflection: bool,
+    /// Lighting and switches of the objects.
+    look: draw::Look,
+    /// Camera effects.
+    fx: camera::CameraFx,
+    /// Exposure time for the motion blur (0: no motion blur).
+    exposure_s: f64,
     sea_rgb: [f32; 3],
     haze_rgb: [f32; 3],
     sky_top_rgb: [f32; 3],
@@ -60,6 +79,19 @@ const SWELL_TEXELS_PER_WAVE: f64 = 64.0;
 const SWELL_ACROSS_WAVES: f64 = 12.0;
 /// Texels of the chop texture per metre.
 const CHOP_TEXELS_PER_M: f64 = 24.0;
+/// Metres per texel of the colour-variation texture.
+const TINT_M_PER_TEXEL: f64 = 1.5;
+/// Components of the swell spectrum as (cycles along, cycles across, relative amplitude)
+/// over the tile of 4 wavelengths x 12 wavelengths: the dominant wave, longer and shorter
+/// ones at angles up to ~40 degrees.
+const SWELL_COMPONENTS: [(f64, f64, f32); 6] = [
+    (4.0, 0.0, 1.0),
+    (3.0, 5.0, 0.45),
+    (5.0, -4.0, 0.4),
+    (6.0, 2.0, 0.3),
+    (9.0, -7.0, 0.18),
+    (11.0, 10.0, 0.12),
+];
 
 impl Renderer {
     /// Builds the textures and colours of `scenario`.
@@ -68,16 +100,72 @@ impl Renderer {
         rng.set_stream(STREAM_TEXTURE);
         let phase = value_noise(&mut rng, &[(4, 1.0), (8, 0.5)]);
         let amp = value_noise(&mut rng, &[(4, 1.0), (16, 0.4)]);
-        let mut swell: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        let sea = &scenario.sea;
+        let settings = &scenario.render;
+        let mut detail = ChaCha8Rng::seed_from_u64(seed);
+        detail.set_stream(STREAM_SEA_DETAIL);
+        // A rougher sea has relatively more short, crossing components.
+        let rough = (sea.wave_height_m as f32).clamp(0.0, 2.0) * 0.5;
+        let comp_phase: Vec<f32> = SWELL_COMPONENTS
+            .iter()
+            .map(|_| detail.random_range(0.0..std::f32::consts::TAU))
+            .collect();
+        let mut raw = vec![0f32; TEX * TEX];
+        let (mut lo, mut hi) = (f32::MAX, f32::MIN);
         for y in 0..TEX {
             for x in 0..TEX {
                 let i = y * TEX + x;
-                let ph = (x as f32 / SWELL_TEXELS_PER_WAVE as f32 + 1.5 * phase[i])
-                    * std::f32::consts::TAU;
-                // Sharper crests than troughs, like real waves.
-                let s = 0.5 + 0.5 * ph.sin();
-                let v = (s * s * (0.4 + 0.9 * amp[i])).clamp(0.0, 1.0);
-                swell[i] = (v * 255.0) as u8;
+                let mut v = 0.0;
+                for (k, &(ca, cb, a)) in SWELL_COMPONENTS.iter().enumerate() {
+                    let a = if k == 0 { a } else { a * (0.6 + rough) };
+                    let ph = ((ca * x as f64 + cb * y as f64) / TEX as f64) as f32
+                        * std::f32::consts::TAU
+                        + comp_phase[k]
+                        + if k == 0 {
+                            1.5 * std::f32::consts::TAU * phase[i]
+                        } else {
+                            0.0
+                        };
+                    // Sharper crests than troughs, like real waves.
+                    let s = 0.5 + 0.5 * ph.sin();
+                    v += a * s * s;
+                }
+                v *= 0.4 + 0.9 * amp[i];
+                raw[i] = v;
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        let span = (hi - lo).max(1e-6);
+        let mut swell: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        for (t, v) in swell.iter_mut().zip(&raw) {
+            *t = (((v - lo) / span).clamp(0.0, 1.0) * 255.0) as u8;
+        }
+        let foam = if settings.whitecaps {
+            make_foam(&mut detail, &raw, sea.wave_height_m)
+        } else {
+            None
+        };
+        let tint_f = value_noise(&mut detail, &[(4, 1.0), (8, 0.6), (16, 0.3)]);
+        let mut tint: Box<Texture> = Box::new([0u8; TEX * TEX]);
+        for (t, v) in tint.iter_mut().zip(tint_f.iter()) {
+            *t = (v.clamp(0.0, 1.0) * 255.0) as u8;
+        }
+        // A seeded offset of the sea's colour: bluer, greener or greyer water.
+        let c = sea.color_rgb;
+        let mut sea_rgb = [f32::from(c[0]), f32::from(c[1]), f32::from(c[2])];
+        if settings.color_variation {
+            let grey = detail.random_range(0.0f32..0.3);
+            let mean = (sea_rgb[0] + sea_rgb[1] + sea_rgb[2]) / 3.0;
+            let green = detail.random_range(-0.1f32..0.12);
+            let bright = detail.random_range(0.88f32..1.12);
+            for v in &mut sea_rgb {
+                *v += (mean - *v) * grey;
+            }
+            sea_rgb[1] *= 1.0 + green;
+            sea_rgb[2] *= 1.0 - green * 0.5;
+            for v in &mut sea_rgb {
+                *v *= bright;
             }
         }
         let chop_f = value_noise(&mut rng, &[(16, 1.0), (32, 0.6), (64, 0.35)]);
@@ -85,14 +173,35 @@ impl Renderer {
         for (c, v) in chop.iter_mut().zip(chop_f.iter()) {
             *c = (v.clamp(0.0, 1.0) * 255.0) as u8;
         }
-        let sea = &scenario.sea;
-        let c = sea.color_rgb;
+        let (width, height) = (
+            scenario.camera.width_px as usize,
+            scenario.camera.height_px as usize,
+        );
+        let look = draw::Look {
+            sun_azimuth_rad: sea.sun_azimuth_deg.to_radians(),
+            sun_elevation_rad: sea.sun_elevation_deg.to_radians(),
+            variety: settings.object_variety,
+            shading: settings.object_shading,
+            wakes: settings.wakes,
+            sea_rgb: sea_rgb.map(|v| v.clamp(0.0, 255.0) as u8),
+        };
         Renderer {
-            width: scenario.camera.width_px as usize,
-            height: scenario.camera.height_px as usize,
+            width,
+            height,
             swell,
             chop,
-            sea_rgb: [f32::from(c[0]), f32::from(c[1]), f32::from(c[2])],
+            foam,
+            tint,
+            tint_amp: if settings.color_variation { 1.0 } else { 0.0 },
+            sky_reflection: settings.sky_reflection,
+            look,
+            fx: camera::CameraFx::new(settings, seed, width, height),
+            exposure_s: if settings.motion_blur {
+                settings.exposure_s
+            } else {
+                0.0
+            },
+            sea_rgb,
             haze_rgb: [150.0, 170.0, 180.0],
             sky_top_rgb: [95.0, 140.0, 200.0],
             wave_amp: (sea.wave_height_m as f32).clamp(0.1, 2.0),
@@ -121,7 +230,9 @@ impl Renderer {
     }
 
     /// Renders the frame captured at true time `t_s` into `rgb` (RGB24, `frame_bytes()`
-    /// long); `with_objects = false` draws the sea only (used by tests).
+    /// long); `with_objects = false` draws the sea only (used by tests). Camera effects
+    /// included: the point-wise ones, the lens blur and the motion blur of the flight's
+    /// motion during the exposure.
     pub fn render(
         &self,
         world: &World,
@@ -131,12 +242,41 @@ impl Renderer {
         with_objects: bool,
     ) {
         let pose = optics.pose(&world.truth(t_s));
-        self.render_pose(world, optics, &pose, t_s, rgb, with_objects);
+        self.render_scene(world, optics, &pose, t_s, rgb, with_objects);
+        let motion = if self.exposure_s > 0.0 {
+            let before = optics.pose(&world.truth(t_s - self.exposure_s));
+            self.image_motion(optics, &pose, &before)
+        } else {
+            None
+        };
+        self.fx.whole_frame(rgb, motion);
     }
 
-    /// Renders the world at time `t_s` seen from `pose` (instead of the scenario's own
-    /// flight: `mgmot-sim follow`) into `rgb`.
-    pub fn render_pose(
+    /// The image motion (pixels) of the sea near the image centre from `before` to `pose`.
+    fn image_motion(
+        &self,
+        optics: &Optics,
+        pose: &CameraPose,
+        before: &CameraPose,
+    ) -> Option<(f64, f64)> {
+        let (w, h) = (self.width as f64, self.height as f64);
+        for (u, v) in [(w * 0.5, h * 0.5), (w * 0.5, h * 0.8), (w * 0.5, h * 0.98)] {
+            let Ok(sea) = optics
+                .model
+                .project_to_sea(pose, &optics.sea, Pixel::new(u, v))
+            else {
+                continue;
+            };
+            let p = optics.model.project_to_image(before, &sea).ok()?;
+            let d = (u - p.u, v - p.v);
+            return (d.0.is_finite() && d.1.is_finite() && d.0.hypot(d.1) < 200.0).then_some(d);
+        }
+        None
+    }
+
+    /// The sea, the objects and the point-wise camera effects (exposure, white balance,
+    /// vignetting, noise): what [`Renderer::render_window`] reproduces in a window.
+    fn render_scene(
         &self,
         world: &World,
         optics: &Optics,
@@ -156,16 +296,34 @@ impl Renderer {
                 height: self.height,
             };
             for (o, _) in &objects {
-                draw_object(&mut canvas, optics, &pose, o);
+                draw::draw_object(&mut canvas, optics, &pose, o, &self.look);
             }
         }
+        self.fx.pointwise(rgb, (0, 0), self.width, self.height, t_s);
+    }
+
+    /// Renders the world at time `t_s` seen from `pose` (instead of the scenario's own
+    /// flight: `mgmot-sim follow`) into `rgb`.
+    pub fn render_pose(
+        &self,
+        world: &World,
+        optics: &Optics,
+        pose: &CameraPose,
+        t_s: f64,
+        rgb: &mut [u8],
+        with_objects: bool,
+    ) {
+        self.render_scene(world, optics, pose, t_s, rgb, with_objects);
+        // No motion blur: the pose's rates are not known here.
+        self.fx.whole_frame(rgb, None);
     }
 
     /// Renders the window `[x0, x0 + w) x [y0, y0 + h)` of the frame captured at true time
     /// `t_s` into `rgb` (RGB24, `w * h * 3` long after the call): the same pixels
     /// [`Renderer::render`] gives there (every sea pixel evaluated exactly instead of
-    /// interpolated along spans, a difference of a unit or two), at the cost of the window
-    /// alone. `objects` are the world's objects at `t_s` (far to near) with their image
+    /// interpolated along spans, a difference of a unit or two) before its whole-frame
+    /// filters (lens and motion blur, which need the neighbours: `render.defocus` and
+    /// `render.motion_blur`), at the cost of the window alone. `objects` are the world's objects at `t_s` (far to near) with their image
     /// positions, from [`Renderer::objects_in_view`]; only those near the window are drawn.
     /// Returns the window's width and height once cut to the frame.
     pub fn render_window(
@@ -215,9 +373,10 @@ impl Renderer {
                     && v < y1 as f64 + reach
             });
             if near {
-                draw_object(&mut canvas, optics, pose, o);
+                draw::draw_object(&mut canvas, optics, pose, o, &self.look);
             }
         }
+        self.fx.pointwise(rgb, (x0, y0), w, h, t_s);
         (w, h)
     }
 
@@ -349,8 +508,21 @@ impl Renderer {
             let d2 = i as f64 / g2_scale;
             *g = (-d2 / (2.0 * glint_sigma * glint_sigma)).exp() as f32;
         }
+        // Fresnel reflectance of the sky over the viewing angle (Schlick), and the sky
+        // colour it reflects (brighter and greyer towards the horizon).
+        let mut lut_fresnel = [0f32; LUT];
+        if self.sky_reflection {
+            for (i, fr) in lut_fresnel.iter_mut().enumerate() {
+                let d2 = i as f64 / d2_scale;
+                let cos = alt / (d2 + alt * alt).sqrt();
+                *fr = (0.02 + 0.98 * (1.0 - cos).powi(5)) as f32;
+            }
+        }
+        let tint_k = 1.0 / TINT_M_PER_TEXEL;
         Some(SeaFrame {
             forms: [rel_n, rel_e, swell_u, swell_v, chop_u, chop_v, rw],
+            tint_forms: [rn * tint_k, re * tint_k],
+            lut_fresnel,
             swell_off,
             chop_off,
             spec_ne: (sn, se),
@@ -380,11 +552,37 @@ impl Renderer {
         let (gn, ge) = (dn - ctx.spec_ne.0, de - ctx.spec_ne.1);
         let gk = (((gn * gn + ge * ge) * ctx.g2_scale) as usize).min(LUT - 1);
         let g = ctx.lut_glint[gk] * self.glint;
+        let fres = ctx.lut_fresnel[k];
+        // Large-scale colour variation: brightness and a green / blue balance.
+        let (tn, te) = (
+            ctx.tint_forms[0].dot(&p) * inv,
+            ctx.tint_forms[1].dot(&p) * inv,
+        );
+        let t1 = sample_bilinear_fixed(
+            &self.tint,
+            (tn * 256.0) as i64 as i32,
+            (te * 256.0) as i64 as i32,
+        );
+        let t2 = sample_bilinear_fixed(
+            &self.tint,
+            (te * 256.0) as i64 as i32 + 40_000,
+            (tn * 256.0) as i64 as i32 + 17_000,
+        );
+        let (b, gb) = (
+            1.0 + self.tint_amp * 0.22 * (t1 / 255.0 - 0.5),
+            self.tint_amp * 0.16 * (t2 / 255.0 - 0.5),
+        );
+        let tinted = [
+            self.sea_rgb[0] * b,
+            self.sea_rgb[1] * b * (1.0 + gb),
+            self.sea_rgb[2] * b * (1.0 - gb),
+        ];
+        let sky = self.sky_reflected();
         let mut c0 = [0f32; 3];
         let mut c1 = [0f32; 3];
         for c in 0..3 {
-            c0[c] = self.sea_rgb[c] * (1.0 - fog);
-            c1[c] = self.haze_rgb[c] * fog + g * 70.0;
+            c0[c] = (tinted[c] * (1.0 - fres) + sky[c] * fres) * (1.0 - fog);
+            c1[c] = self.haze_rgb[c] * fog + g * 35.0;
         }
         // Texture coordinates in 24.8 fixed point, wrapping (the textures tile).
         let fx = |x: f64| ((x * 256.0) as i64) as i32;
@@ -399,7 +597,8 @@ impl Renderer {
                 c1,
                 amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
                 amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
-                sparkle: 3.0 * g,
+                sparkle: 6.0 * g,
+                foam: (ctx.lut_lod_a[k] * 1.5).min(1.0) * (1.0 - fog),
             }
             .with_fixed(fx),
         )
@@ -429,24 +628,17 @@ impl Renderer {
                         dc0[c] = (b.c0[c] - a.c0[c]) * inv_n;
                         dc1[c] = (b.c1[c] - a.c1[c]) * inv_n;
                     }
-                    let (mut amp_a, mut amp_b, mut sparkle) = (a.amp_a, a.amp_b, a.sparkle);
+                    let (mut amp_a, mut amp_b, mut sparkle, mut foam) =
+                        (a.amp_a, a.amp_b, a.sparkle, a.foam);
                     let damp_a = (b.amp_a - a.amp_a) * inv_n;
                     let damp_b = (b.amp_b - a.amp_b) * inv_n;
                     let dsparkle = (b.sparkle - a.sparkle) * inv_n;
+                    let dfoam = (b.foam - a.foam) * inv_n;
                     for px in line[u * BYTES_PER_PIXEL..end * BYTES_PER_PIXEL]
                         .chunks_exact_mut(BYTES_PER_PIXEL)
                     {
-                        let swell = sample_bilinear_fixed(&self.swell, fxy[0], fxy[1]);
-                        let chop = f32::from(self.chop[tex_index(fxy[2] >> 8, fxy[3] >> 8)]);
-                        let shade = 1.0 + amp_a * (swell - 100.0) + amp_b * (chop - 128.0);
-                        let spark = if chop > 170.0 {
-                            (chop - 170.0) * sparkle
-                        } else {
-                            0.0
-                        };
-                        px[0] = (c0[0] * shade + c1[0] + spark) as u8;
-                        px[1] = (c0[1] * shade + c1[1] + spark) as u8;
-                        px[2] = (c0[2] * shade + c1[2] + spark) as u8;
+                        let c = self.shade_px(&fxy, &c0, &c1, amp_a, amp_b, sparkle, foam);
+                        px.copy_from_slice(&c);
                         for k in 0..4 {
                             fxy[k] = fxy[k].wrapping_add(dfx[k]);
                         }
@@ -457,6 +649,7 @@ impl Renderer {
                         amp_a += damp_a;
                         amp_b += damp_b;
                         sparkle += dsparkle;
+                        foam += dfoam;
                     }
                 }
                 _ => {
@@ -477,16 +670,48 @@ impl Renderer {
         let Some(p) = self.sea_point(ctx, x as f64 + 0.5, v as f64 + 0.5) else {
             return sky;
         };
-        let swell = sample_bilinear_fixed(&self.swell, p.fixed[0], p.fixed[1]);
-        let chop = f32::from(self.chop[tex_index(p.fixed[2] >> 8, p.fixed[3] >> 8)]);
-        let shade = 1.0 + p.amp_a * (swell - 100.0) + p.amp_b * (chop - 128.0);
-        let spark = if chop > 170.0 {
-            (chop - 170.0) * p.sparkle
+        self.shade_px(&p.fixed, &p.c0, &p.c1, p.amp_a, p.amp_b, p.sparkle, p.foam)
+    }
+
+    /// The colour of a sea pixel from its texture coordinates and shading inputs.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn shade_px(
+        &self,
+        fxy: &[i32; 4],
+        c0: &[f32; 3],
+        c1: &[f32; 3],
+        amp_a: f32,
+        amp_b: f32,
+        sparkle: f32,
+        foam: f32,
+    ) -> [u8; 3] {
+        let swell = sample_bilinear_fixed(&self.swell, fxy[0], fxy[1]);
+        let chop = f32::from(self.chop[tex_index(fxy[2] >> 8, fxy[3] >> 8)]);
+        let shade = 1.0 + amp_a * (swell - 100.0) + amp_b * (chop - 128.0);
+        // Glitter: the sun's reflection in the facets of the ripples that face it.
+        let spark = if chop > 185.0 {
+            (chop - 185.0) * sparkle
         } else {
             0.0
         };
         // Float-to-int `as` saturates to 0..=255.
-        std::array::from_fn(|c| (p.c0[c] * shade + p.c1[c] + spark) as u8)
+        let mut out: [f32; 3] = std::array::from_fn(|c| c0[c] * shade + c1[c] + spark);
+        if let Some(tex) = &self.foam {
+            let f = tex[tex_index(fxy[0] >> 8, fxy[1] >> 8)];
+            if f > 0 {
+                let a = f32::from(f) * (1.0 / 255.0) * foam;
+                for (o, white) in out.iter_mut().zip(FOAM_RGB) {
+                    *o += (white * (0.8 + 0.2 * chop / 255.0) - *o) * a;
+                }
+            }
+        }
+        out.map(|v| v as u8)
+    }
+
+    /// The sky colour the water reflects.
+    fn sky_reflected(&self) -> [f32; 3] {
+        std::array::from_fn(|c| (self.sky_top_rgb[c] + self.haze_rgb[c]) * 0.5 + 20.0)
     }
 
     fn sky_at(&self, v: usize) -> [f32; 3] {
@@ -512,6 +737,47 @@ impl Renderer {
     }
 }
 
+/// Colour of whitecaps and foam.
+const FOAM_RGB: [f32; 3] = [236.0, 242.0, 244.0];
+
+/// Whitecaps on the swell texture's grid: patches on the highest crests, covering a
+/// fraction growing with the wave height (none below 0.4 m, about 3 % at 1.5 m), and faint
+/// foam streaks along the wave (wind) direction; `None` when there would be none.
+fn make_foam(rng: &mut ChaCha8Rng, swell: &[f32], wave_height_m: f64) -> Option<Box<Texture>> {
+    let cover = ((wave_height_m - 0.4) * 0.03).clamp(0.0, 0.06) as f32;
+    if cover <= 0.0 {
+        return None;
+    }
+    let patches = value_noise(rng, &[(16, 1.0), (64, 0.5)]);
+    // Streaks: elongated along the texture's u axis (the wave direction).
+    let streak_f = value_noise(rng, &[(64, 1.0), (128, 0.5)]);
+    let mut score: Vec<f32> = swell
+        .iter()
+        .zip(&patches)
+        .map(|(s, p)| s * (0.5 + p))
+        .collect();
+    let mut sorted = score.clone();
+    sorted.sort_by(|a, b| a.total_cmp(b));
+    let idx = ((1.0 - cover) * (sorted.len() - 1) as f32) as usize;
+    let thr = sorted[idx.min(sorted.len() - 1)];
+    let top = sorted[sorted.len() - 1].max(thr + 1e-6);
+    let streak_amt = (cover * 6.0).min(0.35);
+    let mut out: Box<Texture> = Box::new([0u8; TEX * TEX]);
+    for y in 0..TEX {
+        for x in 0..TEX {
+            let i = y * TEX + x;
+            let cap = ((score[i] - thr) / (top - thr)).clamp(0.0, 1.0);
+            let cap = (cap * 4.0).min(1.0);
+            // Streak noise sampled stretched along u (x / 8).
+            let s = streak_f[y * TEX + (x / 8)];
+            let streak = ((s - 0.62) * 5.0).clamp(0.0, 1.0) * streak_amt;
+            out[i] = ((cap.max(streak)) * 255.0) as u8;
+        }
+    }
+    score.clear();
+    Some(out)
+}
+
 /// Pixels between exact (perspective-divided) evaluations of the sea coordinates; in
 /// between they are interpolated linearly (the error is far below a texel except next to
 /// the horizon, where spans that cross it are evaluated per pixel).
@@ -522,6 +788,10 @@ struct SeaFrame {
     /// Linear forms over (u, v, 1): north and east relative to the camera, swell u/v, chop
     /// u/v (texels), and the homogeneous weight.
     forms: [SVector<f64, 3>; 7],
+    /// Texel coordinates of the colour-variation texture (absolute north / east).
+    tint_forms: [SVector<f64, 3>; 2],
+    /// Fresnel reflectance of the sky over squared ground distance.
+    lut_fresnel: [f32; LUT],
     swell_off: f64,
     chop_off: (f64, f64),
     spec_ne: (f64, f64),
@@ -547,6 +817,8 @@ struct SeaPoint {
     amp_a: f32,
     amp_b: f32,
     sparkle: f32,
+    /// Visibility of whitecaps (they fade where a texel is below a pixel).
+    foam: f32,
 }
 
 impl SeaPoint {
@@ -774,185 +1046,19 @@ fn convex_hull(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
     lower
 }
 
-/// Colours of life jackets, rings and buoys (high visibility).
-const VIVID: [[u8; 3]; 8] = [
-    [255, 110, 0],
-    [250, 215, 20],
-    [225, 35, 30],
-    [255, 80, 40],
-    [170, 230, 40],
-    [255, 140, 0],
-    [240, 60, 120],
-    [255, 190, 0],
-];
-/// Hull colours.
-const HULLS: [[u8; 3]; 8] = [
-    [236, 236, 232],
-    [200, 40, 35],
-    [30, 50, 110],
-    [150, 155, 160],
-    [240, 200, 40],
-    [245, 245, 245],
-    [60, 120, 70],
-    [220, 220, 210],
-];
-/// Hair / skin tones for heads.
-const HEADS: [[u8; 3]; 4] = [[60, 40, 25], [200, 160, 110], [30, 25, 20], [150, 100, 60]];
-
-/// A part of an object: points in the object's frame (forward, right, up; metres).
-fn ring(cf: f64, cr: f64, rf: f64, rr: f64, up: f64, n: usize) -> Vec<[f64; 3]> {
-    (0..n)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / n as f64;
-            [cf + rf * a.cos(), cr + rr * a.sin(), up]
-        })
-        .collect()
-}
-
-fn draw_object(canvas: &mut Canvas<'_>, optics: &Optics, pose: &CameraPose, o: &ObjectState) {
-    let (s, c) = o.heading_rad.sin_cos();
-    let base = Vector3::from(o.pos_ned_m);
-    let to_px = |pts: &[[f64; 3]]| -> Option<Vec<(f64, f64)>> {
-        let mut out = Vec::with_capacity(pts.len());
-        for p in pts {
-            let world = base + Vector3::new(p[0] * c - p[1] * s, p[0] * s + p[1] * c, -p[2]);
-            let px = optics.model.project_to_image(pose, &world).ok()?;
-            out.push((px.u, px.v));
-        }
-        Some(out)
-    };
-    let mut part = |pts: Vec<[f64; 3]>, color: [u8; 3], alpha: f32| {
-        if let Some(px) = to_px(&pts) {
-            canvas.fill_hull(&px, color, alpha);
-        }
-    };
-    let (l, w, h) = (o.length_m, o.width_m, o.height_m);
-    let pal = o.palette as usize;
-    match o.class {
-        ObjectClass::Swimmer => {
-            // Submerged body trailing behind, seen through the water.
-            part(ring(-0.7, 0.0, 0.7, 0.22, -0.15, 10), [18, 40, 45], 0.45);
-            if o.lifejacket {
-                let mut vest = ring(-0.05, 0.0, l * 0.45, w * 0.5, 0.0, 12);
-                vest.extend(ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.14, 12));
-                part(vest, VIVID[pal % VIVID.len()], 1.0);
-            } else {
-                part(
-                    ring(-0.05, 0.0, l * 0.4, w * 0.45, 0.03, 10),
-                    [40, 45, 50],
-                    0.9,
-                );
-            }
-            let mut head = ring(l * 0.3, 0.0, 0.13, 0.12, 0.08, 8);
-            head.extend(ring(l * 0.3, 0.0, 0.12, 0.11, h, 8));
-            part(head, HEADS[pal % HEADS.len()], 1.0);
-        }
-        ObjectClass::Boat | ObjectClass::Jetski => {
-            if o.speed_mps > 0.8 {
-                // Kelvin wake: two foam arms at ~19.5 deg behind the stern.
-                let len = (o.speed_mps * 1.5).min(18.0);
-                let spread = len * 0.35;
-                for side in [-1.0, 1.0] {
-                    part(
-                        vec![
-                            [-l * 0.45, side * w * 0.3, 0.0],
-                            [-l * 0.5 - len, side * (w * 0.5 + spread), 0.0],
-                            [-l * 0.5 - len, side * (w * 0.5 + spread * 0.8), 0.0],
-                        ],
-                        [225, 235, 235],
-                        0.35,
-                    );
-                }
-                part(
-                    vec![
-                        [-l * 0.5, w * 0.35, 0.0],
-                        [-l * 0.5, -w * 0.35, 0.0],
-                        [-l * 0.5 - len * 0.6, 0.0, 0.0],
-                    ],
-                    [210, 225, 228],
-                    0.3,
-                );
-            }
-            let deck = if o.class == ObjectClass::Boat {
-                h * 0.45
-            } else {
-                0.5
-            };
-            let outline = |up: f64, inset: f64| {
-                vec![
-                    [-l * 0.5 * inset, -w * 0.5 * inset, up],
-                    [-l * 0.5 * inset, w * 0.5 * inset, up],
-                    [l * 0.2 * inset, w * 0.5 * inset, up],
-                    [l * 0.5 * inset, 0.0, up],
-                    [l * 0.2 * inset, -w * 0.5 * inset, up],
-                ]
-            };
-            let hull_c = HULLS[pal % HULLS.len()];
-            let mut hull = outline(0.0, 1.0);
-            hull.extend(outline(deck, 1.0));
-            part(
-                hull,
-                [hull_c[0] / 2 + 20, hull_c[1] / 2 + 20, hull_c[2] / 2 + 20],
-                1.0,
-            );
-            part(outline(deck, 0.92), hull_c, 1.0);
-            if o.class == ObjectClass::Boat {
-                let mut cabin = Vec::new();
-                for up in [deck, h] {
-                    cabin.extend([
-                        [-l * 0.3, -w * 0.3, up],
-                        [-l * 0.3, w * 0.3, up],
-                        [l * 0.05, w * 0.3, up],
-                        [l * 0.05, -w * 0.3, up],
-                    ]);
-                }
-                part(cabin, [120, 130, 140], 1.0);
-                part(
-                    vec![
-                        [-l * 0.3, -w * 0.3, h],
-                        [-l * 0.3, w * 0.3, h],
-                        [l * 0.05, w * 0.3, h],
-                        [l * 0.05, -w * 0.3, h],
-                    ],
-                    [215, 218, 220],
-                    1.0,
-                );
-            } else {
-                let mut rider = ring(-0.3, 0.0, 0.25, 0.22, deck, 8);
-                rider.extend(ring(-0.3, 0.0, 0.2, 0.18, h, 8));
-                part(rider, [25, 25, 30], 1.0);
-            }
-        }
-        ObjectClass::Buoy => {
-            let mut body = ring(0.0, 0.0, l * 0.5, w * 0.5, 0.0, 14);
-            body.extend(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14));
-            let col = VIVID[pal % 3];
-            part(
-                body,
-                [col[0] / 2 + 10, col[1] / 2 + 10, col[2] / 2 + 10],
-                1.0,
-            );
-            part(ring(0.0, 0.0, l * 0.35, w * 0.35, h, 14), col, 1.0);
-        }
-        ObjectClass::LifeSavingAppliance => {
-            let col = VIVID[pal % VIVID.len()];
-            let mut outer = ring(0.0, 0.0, l * 0.5, w * 0.5, 0.0, 16);
-            outer.extend(ring(0.0, 0.0, l * 0.5, w * 0.5, h, 16));
-            part(outer, col, 1.0);
-            part(ring(0.0, 0.0, l * 0.27, w * 0.27, h, 12), [20, 55, 70], 0.7);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     /// A window renders the pixels of the whole frame there (the sea within the span
-    /// interpolation's unit or two, the objects exactly).
+    /// interpolation's unit or two, the objects exactly), point-wise camera effects
+    /// (exposure, white balance, vignetting, noise) included. The whole-frame filters
+    /// (lens and motion blur) are switched off: a window does not apply them.
     #[test]
     fn a_window_shows_what_the_frame_shows_there() {
-        let s = Scenario::load("swimmer_group").unwrap();
+        let mut s = Scenario::load("swimmer_group").unwrap();
+        s.render.defocus = false;
+        s.render.motion_blur = false;
         let optics = Optics::new(&s).unwrap();
         let world = World::new(s.clone(), 1);
         let r = Renderer::new(&s, 1);
