@@ -249,7 +249,7 @@ impl Renderer {
         } else {
             None
         };
-        self.fx.whole_frame(rgb, motion);
+        self.fx.whole_frame(rgb, t_s, motion);
     }
 
     /// The image motion (pixels) of the sea near the image centre from `before` to `pose`.
@@ -274,8 +274,7 @@ impl Renderer {
         None
     }
 
-    /// The sea, the objects and the point-wise camera effects (exposure, white balance,
-    /// vignetting, noise): what [`Renderer::render_window`] reproduces in a window.
+    /// The sea and the objects, before the camera effects.
     fn render_scene(
         &self,
         world: &World,
@@ -299,7 +298,6 @@ impl Renderer {
                 draw::draw_object(&mut canvas, optics, &pose, o, &self.look);
             }
         }
-        self.fx.pointwise(rgb, (0, 0), self.width, self.height, t_s);
     }
 
     /// Renders the world at time `t_s` seen from `pose` (instead of the scenario's own
@@ -315,7 +313,7 @@ impl Renderer {
     ) {
         self.render_scene(world, optics, pose, t_s, rgb, with_objects);
         // No motion blur: the pose's rates are not known here.
-        self.fx.whole_frame(rgb, None);
+        self.fx.whole_frame(rgb, t_s, None);
     }
 
     /// Renders the window `[x0, x0 + w) x [y0, y0 + h)` of the frame captured at true time
@@ -598,7 +596,11 @@ impl Renderer {
                 amp_a: self.wave_amp * 0.45 / 128.0 * ctx.lut_lod_a[k] * (1.0 - fog),
                 amp_b: 0.22 / 128.0 * ctx.lut_lod_b[k] * (1.0 - fog),
                 sparkle: 6.0 * g,
-                foam: (ctx.lut_lod_a[k] * 1.5).min(1.0) * (1.0 - fog),
+                // Whitecaps come in groups: a large-scale field (not tiling with the swell
+                // texture) lets them appear in some areas only.
+                foam: (ctx.lut_lod_a[k] * 1.5).min(1.0)
+                    * (1.0 - fog)
+                    * ((t2 / 255.0 - 0.42) * 4.0).clamp(0.0, 0.9),
             }
             .with_fixed(fx),
         )
@@ -741,10 +743,11 @@ impl Renderer {
 const FOAM_RGB: [f32; 3] = [236.0, 242.0, 244.0];
 
 /// Whitecaps on the swell texture's grid: patches on the highest crests, covering a
-/// fraction growing with the wave height (none below 0.4 m, about 3 % at 1.5 m), and faint
-/// foam streaks along the wave (wind) direction; `None` when there would be none.
+/// fraction growing with the wave height (none below 0.4 m), and faint
+/// foam streaks along the wave (wind) direction; `None` when there would be none. The
+/// renderer shows them only in part of the area (whitecaps come in groups).
 fn make_foam(rng: &mut ChaCha8Rng, swell: &[f32], wave_height_m: f64) -> Option<Box<Texture>> {
-    let cover = ((wave_height_m - 0.4) * 0.03).clamp(0.0, 0.06) as f32;
+    let cover = ((wave_height_m - 0.4) * 0.06).clamp(0.0, 0.12) as f32;
     if cover <= 0.0 {
         return None;
     }
@@ -754,7 +757,7 @@ fn make_foam(rng: &mut ChaCha8Rng, swell: &[f32], wave_height_m: f64) -> Option<
     let mut score: Vec<f32> = swell
         .iter()
         .zip(&patches)
-        .map(|(s, p)| s * (0.5 + p))
+        .map(|(s, p)| s * (0.1 + 1.8 * p * p))
         .collect();
     let mut sorted = score.clone();
     sorted.sort_by(|a, b| a.total_cmp(b));
@@ -767,7 +770,7 @@ fn make_foam(rng: &mut ChaCha8Rng, swell: &[f32], wave_height_m: f64) -> Option<
         for x in 0..TEX {
             let i = y * TEX + x;
             let cap = ((score[i] - thr) / (top - thr)).clamp(0.0, 1.0);
-            let cap = (cap * 4.0).min(1.0);
+            let cap = (cap * 2.5).min(1.0);
             // Streak noise sampled stretched along u (x / 8).
             let s = streak_f[y * TEX + (x / 8)];
             let streak = ((s - 0.62) * 5.0).clamp(0.0, 1.0) * streak_amt;
@@ -842,9 +845,12 @@ fn sample_bilinear_fixed(tex: &Texture, u: i32, v: i32) -> f32 {
     let b = u32::from(tex[tex_index(x0 + 1, y0)]);
     let c = u32::from(tex[tex_index(x0, y0 + 1)]);
     let d = u32::from(tex[tex_index(x0 + 1, y0 + 1)]);
-    let top = a * (256 - fu) + b * fu;
-    let bot = c * (256 - fu) + d * fu;
-    (top * (256 - fv) + bot * fv) as f32 * (1.0 / 65536.0)
+    // Wrapping arithmetic (no overflow: 255 * 256 * 256 < 2^32) vectorises and skips the
+    // release profile's overflow checks.
+    let (gu, gv) = (256u32.wrapping_sub(fu), 256u32.wrapping_sub(fv));
+    let top = a.wrapping_mul(gu).wrapping_add(b.wrapping_mul(fu));
+    let bot = c.wrapping_mul(gu).wrapping_add(d.wrapping_mul(fu));
+    top.wrapping_mul(gv).wrapping_add(bot.wrapping_mul(fv)) as f32 * (1.0 / 65536.0)
 }
 
 /// Tiling value noise on a TEX x TEX grid: `(cells, weight)` octaves, normalised to [0, 1].
@@ -1127,6 +1133,46 @@ mod tests {
             let q = hm * Vector3::new(u, v, 1.0);
             assert!(q.z > 0.0);
             assert!((q.x / q.z - p.x).abs() < 1e-6 && (q.y / q.z - p.y).abs() < 1e-6);
+        }
+    }
+
+    /// Thread CPU time (user + system, from /proc) in seconds.
+    fn thread_cpu_s() -> f64 {
+        let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap();
+        let rest = &stat[stat.rfind(')').unwrap() + 2..];
+        let f: Vec<&str> = rest.split(' ').collect();
+        (f[11].parse::<f64>().unwrap() + f[12].parse::<f64>().unwrap()) / 100.0
+    }
+
+    /// CPU time per 1280x720 frame on one core (`cargo test -p mgmot-sim --release --lib
+    /// cpu_time_per_frame -- --ignored --nocapture`): CPU time, not wall time, so that other
+    /// processes on the machine do not count.
+    #[test]
+    #[ignore]
+    fn cpu_time_per_frame() {
+        for name in [
+            "calm_baseline",
+            "boats_crossing",
+            "high_altitude_tiny",
+            "gimbal_swings",
+        ] {
+            let s = Scenario::load(name).unwrap();
+            let optics = Optics::new(&s).unwrap();
+            let r = Renderer::new(&s, 1);
+            let world = World::new(s, 1);
+            let mut rgb = vec![0u8; r.frame_bytes()];
+            r.render(&world, &optics, 20.0, &mut rgb, true);
+            let n = 150;
+            let t0 = thread_cpu_s();
+            for k in 0..n {
+                r.render(&world, &optics, 20.0 + k as f64 / 30.0, &mut rgb, true);
+            }
+            let ms = (thread_cpu_s() - t0) * 1000.0 / n as f64;
+            println!(
+                "cpu_time_per_frame {name} {}x{}: {ms:.2} ms",
+                r.width(),
+                r.height()
+            );
         }
     }
 

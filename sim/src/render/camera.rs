@@ -38,13 +38,22 @@ impl CameraFx {
     pub(super) fn new(settings: &Render, seed: u64, width: usize, height: usize) -> CameraFx {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(STREAM_CAMERA);
-        let noise: Box<[i8]> = (0..NOISE)
-            .map(|_| {
-                // Sum of four uniforms: close enough to a Gaussian, sigma 16.
-                let s: f32 = (0..4).map(|_| rng.random::<f32>() - 0.5).sum();
-                (s * 16.0 / 0.577).clamp(-127.0, 127.0) as i8
-            })
-            .collect();
+        // Triples of (R, G, B) noise sharing a luminance part; padded so that a frame row
+        // can read a contiguous slice from any offset.
+        let len = NOISE + width * BYTES_PER_PIXEL + BYTES_PER_PIXEL;
+        let mut noise = vec![0i8; len];
+        let mut gauss = || -> f32 {
+            // Sum of four uniforms: close enough to a Gaussian, sigma 1.
+            let s: f32 = (0..4).map(|_| rng.random::<f32>() - 0.5).sum();
+            s / 0.577
+        };
+        for px in noise.chunks_exact_mut(BYTES_PER_PIXEL) {
+            let lum = gauss();
+            for v in px.iter_mut() {
+                *v = ((lum * 0.8 + gauss() * 0.6) * 16.0).clamp(-127.0, 127.0) as i8;
+            }
+        }
+        let noise = noise.into_boxed_slice();
         let phases = std::array::from_fn(|_| rng.random_range(0.0..std::f64::consts::TAU));
         let wb = if settings.exposure_drift {
             [
@@ -67,24 +76,23 @@ impl CameraFx {
         }
     }
 
-    /// Whether [`CameraFx::pointwise`] changes anything.
+    /// Whether the point-wise effects change anything.
     fn has_pointwise(&self) -> bool {
         self.noise_level > 0.0 || self.drift || self.vignetting > 0.0
     }
 
-    /// Exposure, white balance, vignetting and noise of the pixels of window `rgb`
-    /// (`w` x `h`, top-left at frame pixel `origin`) at frame time `t_s`.
-    pub(super) fn pointwise(
-        &self,
-        rgb: &mut [u8],
-        origin: (usize, usize),
-        w: usize,
-        h: usize,
-        t_s: f64,
-    ) {
-        if !self.has_pointwise() {
-            return;
-        }
+    /// Vignetting gain of frame column / row `p` of a frame side of `size` pixels:
+    /// (1 - v x^2)(1 - v y^2), separable, x and y over the half diagonal.
+    fn vignette(&self, p: usize, size: usize) -> f32 {
+        let (fw, fh) = (self.frame.0.max(1) as f32, self.frame.1.max(1) as f32);
+        let diag = (fw * fw + fh * fh).sqrt() * 0.5;
+        let d = (p as f32 + 0.5 - size as f32 * 0.5) / diag;
+        1.0 - self.vignetting * 0.9 * d * d
+    }
+
+    /// The point-wise effects of frame time `t_s` for rows of `w` pixels starting at
+    /// frame column `x0`.
+    fn exposure(&self, t_s: f64, x0: usize, w: usize) -> Exposure {
         let tau = std::f64::consts::TAU;
         let ph = self.phases;
         let (exposure, wb_r, wb_b) = if self.drift {
@@ -102,60 +110,111 @@ impl CameraFx {
             exposure as f32 * self.wb[1],
             exposure as f32 * wb_b as f32 * self.wb[2],
         ];
-        let (fw, fh) = (self.frame.0.max(1) as f32, self.frame.1.max(1) as f32);
-        // Separable vignetting: (1 - v x^2)(1 - v y^2), x and y from -1 to 1 over the
-        // frame's diagonal-normalised half sizes.
-        let diag = (fw * fw + fh * fh).sqrt() * 0.5;
-        let vig = |p: usize, size: f32| {
-            let d = (p as f32 + 0.5 - size * 0.5) / diag;
-            1.0 - self.vignetting * 0.9 * d * d
-        };
-        let cols: Vec<f32> = (0..w).map(|x| vig(origin.0 + x, fw)).collect();
-        let key = t_s.to_bits().wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        // Per byte of a row: vignetting of the column times the channel's gain.
+        let cols = (0..w * BYTES_PER_PIXEL)
+            .map(|i| {
+                let g = self.vignette(x0 + i / BYTES_PER_PIXEL, self.frame.0) * gain[i % 3];
+                (g * 4096.0) as i32
+            })
+            .collect();
         let level = self.noise_level / 16.0;
-        for y in 0..h {
-            let fy = origin.1 + y;
-            let row_gain = vig(fy, fh);
-            let g = gain.map(|c| c * row_gain);
-            // A random offset into the noise table per frame row.
-            let mut z = key ^ (fy as u64).wrapping_mul(0xD1B5_4A32_D192_ED03);
-            z = (z ^ (z >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z ^= z >> 32;
-            let row_off = z as usize + origin.0 * BYTES_PER_PIXEL;
-            let line = &mut rgb[y * w * BYTES_PER_PIXEL..(y + 1) * w * BYTES_PER_PIXEL];
-            for (x, px) in line.chunks_exact_mut(BYTES_PER_PIXEL).enumerate() {
-                let v = cols[x];
-                let i = row_off + x * BYTES_PER_PIXEL;
-                // Luminance noise shared by the channels, plus a little per channel;
-                // shot noise grows with the signal.
-                let lum = f32::from(self.noise[i & (NOISE - 1)]);
-                for c in 0..BYTES_PER_PIXEL {
-                    let s = f32::from(px[c]) * g[c] * v;
-                    let n = lum * 0.8 + 0.6 * f32::from(self.noise[(i + c + 7919) & (NOISE - 1)]);
-                    px[c] = (s + n * level * (1.2 + s * 0.012)) as u8;
-                }
-            }
+        Exposure {
+            x0,
+            cols,
+            key: t_s.to_bits().wrapping_mul(0x9E37_79B9_7F4A_7C15),
+            // Noise standard deviation (a + b * signal), 16.16 fixed point per noise unit.
+            a: (level * 1.2 * 65536.0) as i32,
+            b: (level * 0.012 * 65536.0) as i32,
         }
     }
 
-    /// The whole-frame filters: a [1 2 1] x [1 2 1] lens blur, then a box blur along
-    /// `motion_px` (the image motion during the exposure) when it is a pixel or more.
-    pub(super) fn whole_frame(&self, rgb: &mut [u8], motion_px: Option<(f64, f64)>) {
-        let (w, h) = self.frame;
-        if self.defocus {
-            lens_blur(rgb, w, h);
+    /// Applies `e` to `line`, the part of frame row `fy` that `e` was made for.
+    fn apply_row(&self, e: &Exposure, fy: usize, line: &mut [u8]) {
+        let row_gain = self.vignette(fy, self.frame.1);
+        // A random offset into the noise table per frame row, a whole pixel.
+        let mut z = e.key ^ (fy as u64).wrapping_mul(0xD1B5_4A32_D192_ED03);
+        z = (z ^ (z >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z ^= z >> 32;
+        let off = (z as usize % (NOISE / BYTES_PER_PIXEL) + e.x0) * BYTES_PER_PIXEL;
+        let Some(noise) = self.noise.get(off..off + line.len()) else {
+            return;
+        };
+        let row = (row_gain * 4096.0) as i32;
+        for ((px, &g), &nv) in line.iter_mut().zip(&e.cols).zip(noise) {
+            // Wrapping arithmetic (no overflow: see the ranges above) vectorises.
+            let s = (i32::from(*px).wrapping_mul(g) >> 8).wrapping_mul(row) >> 16;
+            // Shot noise grows with the signal.
+            let sd = e.a.wrapping_add(e.b.wrapping_mul(s));
+            let v = s.wrapping_add(i32::from(nv).wrapping_mul(sd) >> 16);
+            *px = v.clamp(0, 255) as u8;
         }
+    }
+
+    /// Exposure, white balance, vignetting and noise of the pixels of window `rgb`
+    /// (`w` x `h`, top-left at frame pixel `origin`) at frame time `t_s`.
+    pub(super) fn pointwise(
+        &self,
+        rgb: &mut [u8],
+        origin: (usize, usize),
+        w: usize,
+        h: usize,
+        t_s: f64,
+    ) {
+        if !self.has_pointwise() || w == 0 {
+            return;
+        }
+        let e = self.exposure(t_s, origin.0, w);
+        for (y, line) in rgb
+            .chunks_exact_mut(w * BYTES_PER_PIXEL)
+            .take(h)
+            .enumerate()
+        {
+            self.apply_row(&e, origin.1 + y, line);
+        }
+    }
+
+    /// Every effect over a whole frame rendered at `t_s`, in the camera's order: motion
+    /// blur along `motion_px` (the image motion during the exposure) when it is a pixel or
+    /// more, the lens blur, then exposure, white balance, vignetting and noise.
+    pub(super) fn whole_frame(&self, rgb: &mut [u8], t_s: f64, motion_px: Option<(f64, f64)>) {
+        let (w, h) = self.frame;
         if let Some((dx, dy)) = motion_px {
             if dx.hypot(dy) >= 1.0 {
                 motion_blur(rgb, w, h, dx, dy);
             }
         }
+        if self.defocus {
+            let e = self.has_pointwise().then(|| self.exposure(t_s, 0, w));
+            lens_blur(rgb, w, h, |y, line| {
+                if let Some(e) = &e {
+                    self.apply_row(e, y, line);
+                }
+            });
+        } else {
+            self.pointwise(rgb, (0, 0), w, h, t_s);
+        }
     }
 }
 
-/// Separable [1 2 1] blur, in place, with three horizontally filtered rows in flight.
-fn lens_blur(rgb: &mut [u8], w: usize, h: usize) {
+/// The point-wise effects of one frame, for rows starting at column `x0`.
+struct Exposure {
+    x0: usize,
+    /// Gain per byte of a row (vignetting of the column times the channel's gain), 20.12
+    /// fixed point.
+    cols: Vec<i32>,
+    /// Frame key of the noise offsets.
+    key: u64,
+    a: i32,
+    b: i32,
+}
+
+/// Separable [1 2 1] blur, in place, with three horizontally filtered rows in flight;
+/// `then(y, row)` runs on each finished row while it is in the cache.
+fn lens_blur(rgb: &mut [u8], w: usize, h: usize, mut then: impl FnMut(usize, &mut [u8])) {
     if w < 3 || h < 3 || rgb.len() < w * h * BYTES_PER_PIXEL {
+        for (y, line) in rgb.chunks_exact_mut(w.max(1) * BYTES_PER_PIXEL).enumerate() {
+            then(y, line);
+        }
         return;
     }
     let stride = w * BYTES_PER_PIXEL;
@@ -165,10 +224,15 @@ fn lens_blur(rgb: &mut [u8], w: usize, h: usize) {
             let e = stride - BYTES_PER_PIXEL + c;
             out[e] = 3 * u16::from(src[e]) + u16::from(src[e - BYTES_PER_PIXEL]);
         }
-        for i in BYTES_PER_PIXEL..stride - BYTES_PER_PIXEL {
-            out[i] = u16::from(src[i - BYTES_PER_PIXEL])
-                + 2 * u16::from(src[i])
-                + u16::from(src[i + BYTES_PER_PIXEL]);
+        let n = stride - 2 * BYTES_PER_PIXEL;
+        let mid = &mut out[BYTES_PER_PIXEL..BYTES_PER_PIXEL + n];
+        let l = &src[..n];
+        let c = &src[BYTES_PER_PIXEL..BYTES_PER_PIXEL + n];
+        let r = &src[2 * BYTES_PER_PIXEL..2 * BYTES_PER_PIXEL + n];
+        for (((o, &l), &c), &r) in mid.iter_mut().zip(l).zip(c).zip(r) {
+            *o = u16::from(l)
+                .wrapping_add(u16::from(c) << 1)
+                .wrapping_add(u16::from(r));
         }
     };
     let mut rows = [vec![0u16; stride], vec![0u16; stride], vec![0u16; stride]];
@@ -178,9 +242,11 @@ fn lens_blur(rgb: &mut [u8], w: usize, h: usize) {
     hrow(&rgb[stride..2 * stride], &mut rows[2]);
     for y in 0..h {
         let out = &mut rgb[y * stride..(y + 1) * stride];
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = ((rows[0][i] + 2 * rows[1][i] + rows[2][i] + 8) >> 4) as u8;
+        let [a, b, c] = &rows;
+        for (((o, &a), &b), &c) in out.iter_mut().zip(a).zip(b).zip(c) {
+            *o = (a.wrapping_add(b << 1).wrapping_add(c).wrapping_add(8) >> 4) as u8;
         }
+        then(y, out);
         rows.rotate_left(1);
         // Row y + 2 is still the original (only rows up to y were written).
         let next = (y + 2).min(h - 1);
@@ -201,22 +267,35 @@ fn motion_blur(rgb: &mut [u8], w: usize, h: usize, dx: f64, dy: f64) {
     let src = rgb.to_vec();
     let stride = w * BYTES_PER_PIXEL;
     let inv = (65536 / taps) as u32;
-    let (wi, hi) = (w as isize, h as isize);
-    for y in 0..hi {
-        for x in 0..wi {
-            let mut acc = [0u32; 3];
-            for &(ox, oy) in &offsets {
-                let sx = (x + ox).clamp(0, wi - 1) as usize;
-                let sy = (y + oy).clamp(0, hi - 1) as usize;
-                let i = sy * stride + sx * BYTES_PER_PIXEL;
-                acc[0] += u32::from(src[i]);
-                acc[1] += u32::from(src[i + 1]);
-                acc[2] += u32::from(src[i + 2]);
+    let mut acc = vec![0u16; stride];
+    for y in 0..h {
+        acc.fill(0);
+        for &(ox, oy) in &offsets {
+            let sy = (y as isize + oy).clamp(0, h as isize - 1) as usize;
+            let row = &src[sy * stride..(sy + 1) * stride];
+            // acc[x] += row[x + ox], the edge pixel repeating past the ends.
+            let sh = (ox.unsigned_abs() * BYTES_PER_PIXEL).min(stride);
+            let n = stride - sh;
+            if ox >= 0 {
+                for (a, &v) in acc[..n].iter_mut().zip(&row[sh..]) {
+                    *a = a.wrapping_add(u16::from(v));
+                }
+                let last = &row[stride - BYTES_PER_PIXEL..];
+                for (i, a) in acc[n..].iter_mut().enumerate() {
+                    *a = a.wrapping_add(u16::from(last[i % BYTES_PER_PIXEL]));
+                }
+            } else {
+                for (a, &v) in acc[sh..].iter_mut().zip(&row[..n]) {
+                    *a = a.wrapping_add(u16::from(v));
+                }
+                for (i, a) in acc[..sh].iter_mut().enumerate() {
+                    *a = a.wrapping_add(u16::from(row[i % BYTES_PER_PIXEL]));
+                }
             }
-            let o = y as usize * stride + x as usize * BYTES_PER_PIXEL;
-            for c in 0..3 {
-                rgb[o + c] = ((acc[c] * inv) >> 16).min(255) as u8;
-            }
+        }
+        let out = &mut rgb[y * stride..(y + 1) * stride];
+        for (o, &a) in out.iter_mut().zip(&acc) {
+            *o = (u32::from(a).wrapping_mul(inv) >> 16).min(255) as u8;
         }
     }
 }

@@ -413,43 +413,47 @@ fn wake(p: &mut Painter<'_, '_, '_>, o: &ObjectState, small: bool) {
         return;
     }
     let (l, w) = (o.length_m, o.width_m);
-    let len = (o.speed_mps * if small { 1.8 } else { 1.5 }).min(22.0);
-    let spread = len * 0.36;
-    let strength = ((o.speed_mps - 0.8) / 6.0).clamp(0.2, 1.0) as f32;
+    let len = (o.speed_mps * if small { 1.3 } else { 1.6 }).min(20.0);
+    let strength = ((o.speed_mps - 0.8) / 6.0).clamp(0.25, 1.0) as f32;
     let foam = [228, 236, 236];
-    // Kelvin arms: three overlapping pieces, fading with distance.
+    // Kelvin arms from the bow, opening at ~19.5 degrees, widening and fading out.
+    let arm = len * 1.3;
+    let spread = arm * 0.354;
+    let pieces = 5;
     for side in [-1.0, 1.0] {
-        for k in 0..3 {
-            let a = k as f64 / 3.0;
-            let b = (k + 1) as f64 / 3.0;
+        for k in 0..pieces {
+            let a = k as f64 / pieces as f64;
+            let b = (k + 1) as f64 / pieces as f64;
             let pt = |t: f64, off: f64| {
                 [
-                    -l * 0.45 - len * t,
-                    side * (w * 0.45 + spread * t + off * (0.3 + t)),
+                    l * 0.35 - (l * 0.85 + arm) * t,
+                    side * (w * 0.5 + spread * t + off * (0.15 + 0.8 * t)),
                     0.0,
                 ]
             };
             p.part(
-                &[pt(a, 0.0), pt(b, 0.0), pt(b, 0.5), pt(a, 0.4)],
+                &[pt(a, -0.3), pt(b, -0.3), pt(b, 0.6), pt(a, 0.6)],
                 foam,
-                0.4 * strength * (1.0 - a as f32 * 0.6),
+                0.22 * strength * (1.0 - a as f32).powi(2),
             );
         }
     }
-    // Turbulent wash behind the stern, brightest at the transom.
-    for k in 0..3 {
-        let a = k as f64 / 3.0;
-        let b = (k + 1) as f64 / 3.0;
-        let wd = w * 0.35 * (1.0 + a * 0.8);
+    // Turbulent wash behind the stern (propeller), brightest at the transom, spreading.
+    // Overlapping pieces (each reaches into the next) soften the steps between them.
+    for k in 0..6 {
+        let a = k as f64 / 6.0;
+        let b = ((k + 2) as f64 / 6.0).min(1.0);
+        let wa = w * 0.25 * (1.0 + a * 1.5);
+        let wb = w * 0.25 * (1.0 + b * 1.5);
         p.part(
             &[
-                [-l * 0.5 - len * 0.7 * a, -wd, 0.0],
-                [-l * 0.5 - len * 0.7 * a, wd, 0.0],
-                [-l * 0.5 - len * 0.7 * b, wd * 1.3, 0.0],
-                [-l * 0.5 - len * 0.7 * b, -wd * 1.3, 0.0],
+                [-l * 0.5 - len * a, -wa, 0.0],
+                [-l * 0.5 - len * a, wa, 0.0],
+                [-l * 0.5 - len * b, wb, 0.0],
+                [-l * 0.5 - len * b, -wb, 0.0],
             ],
             foam,
-            0.5 * strength * (1.0 - a as f32 * 0.7),
+            0.35 * strength * (1.0 - a as f32).powi(2),
         );
     }
     // Bow wave along the sides.
@@ -458,11 +462,11 @@ fn wake(p: &mut Painter<'_, '_, '_>, o: &ObjectState, small: bool) {
             &[
                 [l * 0.45, side * w * 0.1, 0.0],
                 [l * 0.1, side * w * 0.58, 0.0],
-                [-l * 0.2, side * w * 0.56, 0.0],
+                [-l * 0.3, side * w * 0.6, 0.0],
                 [l * 0.1, side * w * 0.48, 0.0],
             ],
             foam,
-            0.35 * strength,
+            0.4 * strength,
         );
     }
 }
