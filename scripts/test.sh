@@ -13,7 +13,7 @@ fi
 # Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv. The tests that
 # need an outside tool (these, ONNX Runtime below) fail, naming it, when it is missing: none of
 # them passes as a skip.
-if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink" 2>/dev/null; then
+if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink, PIL, onnx" 2>/dev/null; then
   echo "== python venv for the cross-checks (.venv)"
   if ! python3 -m venv .venv 2>/dev/null; then
     SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
@@ -72,3 +72,9 @@ trap 'rm -f "$MGMOT_FUZZ_SUMMARY"' EXIT
 cargo test --workspace --release
 echo "== fuzz: 1,000,000 generated inputs per target (MGMOT_FUZZ_SEED=$MGMOT_FUZZ_SEED)"
 cat "$MGMOT_FUZZ_SUMMARY"
+# train/'s data path without PyTorch: a rendered sequence laid out as SeaDronesSee and read back.
+echo "== train/: the SeaDronesSee-layout data path (train/test_data.py)"
+seq="$(mktemp -d)/seq"
+"$MGMOT_SIM_BIN" render -s calm_baseline -o "$seq" --format jpg --every 150 --duration-s 40 2>/dev/null
+.venv/bin/python3 train/test_data.py "$seq"
+rm -rf "$(dirname "$seq")"

@@ -1,11 +1,20 @@
 """Labelled frames for training and evaluation.
 
-Frames are sequences rendered by ``mgmot-sim render -s SCENARIO --seed N -o DIR``
-(``img1/*.jpg`` + ``annotations.json``, SeaDronesSee-style COCO), or any folder
-of COCO-style JSON files next to their images (e.g. real footage).
+Two layouts are read:
 
-A sample is ``(image uint8 HxWx3 RGB, boxes float32 (n, 4) x1 y1 x2 y2 in pixels,
-classes int64 (n,))``. Class ids follow ``model.CLASS_NAMES``.
+* **simulator sequences**: ``mgmot-sim render -s SCENARIO -o DIR`` writes
+  ``img1/*.jpg`` + ``annotations.json`` (SeaDronesSee-style COCO); any folder of
+  COCO JSON files next to their images is read the same way
+  (:func:`load_coco_dir`);
+* **the SeaDronesSee layout** (the real dataset, or one generated in exactly
+  its layout by ``make_seadronessee_layout.py``): ``ROOT/images/SPLIT/*.jpg``
+  and ``ROOT/annotations/instances_SPLIT.json``, each image with the drone's
+  ``meta`` (:func:`load_seadronessee`).
+
+:func:`load_dataset` picks the layout from what is on disk.
+
+A sample is ``(image path, boxes float32 (n, 4) x1 y1 x2 y2 in pixels,
+classes int64 (n,))``. Class ids follow ``classes.CLASS_NAMES``. Torch-free.
 """
 
 from __future__ import annotations
@@ -16,50 +25,106 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from model import CLASS_NAMES
+from classes import CATEGORY_MAP, CLASS_NAMES
 
-# Category names in the sim / SeaDronesSee JSON mapped onto our classes; others are ignored.
-CATEGORY_MAP = {
-    "swimmer": 0,
-    "swimmer with life jacket": 0,
-    "person": 0,
-    "boat": 1,
-    "jetski": 1,
-}
+
+class DatasetError(Exception):
+    """A dataset that cannot be read as it claims to be (the message says what and where)."""
+
+
+def _samples_of(doc: dict, image_path, where: str):
+    """(path, boxes, classes) of every image of one COCO document whose file exists."""
+    if not isinstance(doc, dict) or "images" not in doc or "annotations" not in doc:
+        raise DatasetError(f"{where}: not a COCO document (no 'images' / 'annotations')")
+    cats = {c["id"]: str(c["name"]).lower() for c in doc.get("categories", [])}
+    per_image = {im["id"]: (im, []) for im in doc["images"]}
+    for a in doc["annotations"]:
+        cls = CATEGORY_MAP.get(cats.get(a.get("category_id"), ""))
+        if cls is None or a.get("image_id") not in per_image:
+            continue
+        x, y, w, h = a["bbox"]
+        if w <= 1 or h <= 1:
+            continue
+        per_image[a["image_id"]][1].append((x, y, x + w, y + h, cls))
+    samples, missing = [], 0
+    for im, anns in per_image.values():
+        path = image_path(im["file_name"])
+        if path is None:
+            missing += 1
+            continue
+        arr = np.asarray(anns, dtype=np.float32).reshape(-1, 5)
+        samples.append((path, arr[:, :4], arr[:, 4].astype(np.int64)))
+    return samples, missing
 
 
 # ---------------------------------------------------------------- sim frames
 def load_coco_dir(root: Path):
     """All (image path, boxes, classes) from every COCO-style JSON under ``root``."""
     samples = []
-    for js in sorted(root.rglob("*.json")):
+    for js in sorted(Path(root).rglob("*.json")):
         try:
             doc = json.loads(js.read_text())
         except (OSError, json.JSONDecodeError):
             continue
         if not isinstance(doc, dict) or "images" not in doc or "annotations" not in doc:
             continue
-        cats = {c["id"]: c["name"].lower() for c in doc.get("categories", [])}
-        per_image = {im["id"]: (im, []) for im in doc["images"]}
-        for a in doc["annotations"]:
-            cls = CATEGORY_MAP.get(cats.get(a["category_id"], ""))
-            if cls is None or a["image_id"] not in per_image:
-                continue
-            x, y, w, h = a["bbox"]
-            if w <= 1 or h <= 1:
-                continue
-            per_image[a["image_id"]][1].append((x, y, x + w, y + h, cls))
-        for im, anns in per_image.values():
-            path = (js.parent / im["file_name"]).resolve()
-            if not path.exists():
-                # Look only inside this JSON's folder: every sim sequence numbers its frames from 1.
-                cand = list(js.parent.rglob(Path(im["file_name"]).name))
-                if not cand:
-                    continue
-                path = cand[0]
-            arr = np.asarray(anns, dtype=np.float32).reshape(-1, 5)
-            samples.append((path, arr[:, :4], arr[:, 4].astype(np.int64)))
+
+        def find(name, base=js.parent):
+            path = (base / name).resolve()
+            if path.exists():
+                return path
+            # Look only inside this JSON's folder: every sim sequence numbers its frames from 1.
+            cand = list(base.rglob(Path(name).name))
+            return cand[0] if cand else None
+
+        samples.extend(_samples_of(doc, find, str(js))[0])
     return samples
+
+
+# ------------------------------------------------------- SeaDronesSee layout
+def is_seadronessee_layout(root: Path) -> bool:
+    """True when ``root`` has ``annotations/instances_*.json`` (the SeaDronesSee layout)."""
+    return any((Path(root) / "annotations").glob("instances_*.json"))
+
+
+def load_seadronessee(root: Path, split: str):
+    """(image path, boxes, classes) of ``ROOT/annotations/instances_SPLIT.json`` with images in ``ROOT/images/SPLIT``.
+
+    Raises :class:`DatasetError` when the file is missing or unreadable, or when
+    none of its images is on disk; images that are missing are skipped and
+    counted in the message printed to stdout.
+    """
+    root = Path(root)
+    js = root / "annotations" / f"instances_{split}.json"
+    if not js.is_file():
+        have = sorted(p.name for p in (root / "annotations").glob("instances_*.json"))
+        raise DatasetError(f"{js}: no such file (splits here: {', '.join(have) or 'none'})")
+    try:
+        doc = json.loads(js.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise DatasetError(f"{js}: {e}") from e
+    img_dir = root / "images" / split
+
+    def find(name):
+        path = img_dir / Path(name).name
+        return path if path.is_file() else None
+
+    samples, missing = _samples_of(doc, find, str(js))
+    if not samples:
+        raise DatasetError(f"{js}: none of its {missing} images is in {img_dir}")
+    if missing:
+        print(f"{js}: {missing} images not in {img_dir}, skipped", flush=True)
+    return samples
+
+
+def load_dataset(path: Path, split: str = "train"):
+    """Samples of ``path``: the SeaDronesSee layout (split ``split``) when it is one, else simulator sequences."""
+    path = Path(path)
+    if not path.exists():
+        raise DatasetError(f"{path}: no such folder")
+    if is_seadronessee_layout(path):
+        return load_seadronessee(path, split)
+    return load_coco_dir(path)
 
 
 def read_image(path: Path) -> np.ndarray:

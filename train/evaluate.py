@@ -134,15 +134,77 @@ def map50(preds, gts, nc):
     return float(np.mean(list(aps.values()))) if aps else 0.0, aps
 
 
+CONF_SCORE = 0.25  # the runtime's score threshold (src/detect DEFAULT_SCORE_THRESHOLD)
+SMALL_PX = 12.0  # "small": the longer side of the true box under this many pixels
+
+
+def confusion(preds, gts, nc, score=CONF_SCORE):
+    """Confusion counts at IoU 0.5, class-agnostic matching, detections scoring >= ``score``.
+
+    Row = true class (last row: no true object, i.e. a false detection), column =
+    detected class (last column: not detected). Each true box is matched to at
+    most one detection, greedily by score; the matched pair counts in
+    ``[true, detected]``, whatever their classes.
+    """
+    m = np.zeros((nc + 1, nc + 1), np.int64)
+    for (pb, ps, pc), (gb, gc) in zip(preds, gts):
+        keep = ps >= score
+        pb, ps, pc = pb[keep], ps[keep], pc[keep]
+        used = np.zeros(len(gb), bool)
+        for i in np.argsort(-ps, kind="stable"):
+            j = -1
+            if len(gb):
+                ious = iou_one_to_many(pb[i], gb)
+                ious[used] = 0.0
+                j = int(np.argmax(ious))
+                if ious[j] < 0.5:
+                    j = -1
+            if j < 0:
+                m[nc, pc[i]] += 1
+            else:
+                used[j] = True
+                m[gc[j], pc[i]] += 1
+        for j in np.where(~used)[0]:
+            m[gc[j], nc] += 1
+    return m
+
+
+def small_recall(preds, gts, score=CONF_SCORE, small=SMALL_PX):
+    """Recall (any class, IoU >= 0.5, score >= ``score``) on true boxes whose longer side is under ``small`` px."""
+    hit = total = 0
+    for (pb, ps, _), (gb, _) in zip(preds, gts):
+        sides = np.maximum(gb[:, 2] - gb[:, 0], gb[:, 3] - gb[:, 1]) if len(gb) else np.zeros(0)
+        small_idx = np.where(sides < small)[0]
+        total += len(small_idx)
+        pb = pb[ps >= score]
+        for j in small_idx:
+            if len(pb) and iou_one_to_many(gb[j], pb).max() >= 0.5:
+                hit += 1
+    return (hit / total if total else None), total
+
+
+def format_confusion(m, names) -> str:
+    """The confusion matrix as a Markdown table (rows true, columns detected)."""
+    short = [n.replace("life_saving_appliances", "lifesaving") for n in names]
+    head = "| true \\ detected | " + " | ".join(short + ["missed"]) + " |"
+    rows = [head, "|" + " --- |" * (len(names) + 2)]
+    for i, label in enumerate(short + ["(no object)"]):
+        rows.append(f"| {label} | " + " | ".join(str(int(v)) for v in m[i]) + " |")
+    return "\n".join(rows)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--models", nargs="+", required=True)
     ap.add_argument("--data", required=True, help="held-out sequences (COCO-style JSON + images)")
     ap.add_argument("--count", type=int, default=0, help="evaluate every k-th frame so that about this many remain (0: all)")
     ap.add_argument("--tiled-every", type=int, default=3, help="tiled mode on every k-th of those frames (16 inferences each)")
+    ap.add_argument("--split", default="val", help="split of a SeaDronesSee-layout dataset")
+    ap.add_argument("--modes", default="full", help="comma-separated: full (whole frames), tiled")
+    ap.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads")
     ap.add_argument("--json")
     args = ap.parse_args()
-    samples = data.load_coco_dir(Path(args.data))
+    samples = data.load_dataset(Path(args.data), args.split)
     if args.count:
         samples = samples[:: max(1, len(samples) // args.count)]
     frames = [(data.read_image(p), b, c) for p, b, c in samples]
@@ -156,24 +218,36 @@ def main():
     }
     for path in args.models:
         so = ort.SessionOptions()
-        so.intra_op_num_threads = 1  # 1: a loaded 2-core machine punishes spinning threads
+        so.intra_op_num_threads = args.threads  # 1 by default: a loaded 2-core machine punishes spinning threads
         sess = ort.InferenceSession(path, so, providers=["CPUExecutionProvider"])
         inp = sess.get_inputs()[0]
         size = (inp.shape[2], inp.shape[3])
         entry = {}
-        for mode in ("full", "tiled"):
+        for mode in args.modes.split(","):
             k = args.tiled_every if mode == "tiled" else 1
             t0 = time.time()
             preds = [detect(sess, inp, size, img, mode == "tiled") for img, _, _ in frames[::k]]
             dt = time.time() - t0
             m, aps = map50(preds, gts[::k], len(names))
+            conf = confusion(preds, gts[::k], len(names))
+            rec_small, n_small = small_recall(preds, gts[::k])
             entry[mode] = {
                 "frames": len(preds),
                 "map50": round(m, 4),
-                "ap50_per_class": {names[k]: round(v, 4) for k, v in aps.items()},
+                "ap50_per_class": {names[c]: round(v, 4) for c, v in aps.items()},
+                "confusion": {
+                    "score_threshold": CONF_SCORE,
+                    "rows_true": names + ["(no object)"],
+                    "cols_detected": names + ["(missed)"],
+                    "counts": conf.tolist(),
+                },
+                "recall_small": {"max_side_px": SMALL_PX, "score_threshold": CONF_SCORE, "objects": n_small,
+                                 "recall": None if rec_small is None else round(rec_small, 4)},
                 "ms_per_frame_python_ort": round(1000 * dt / max(1, len(preds)), 2),
             }
-            print(f"{path} [{mode}]: mAP50 = {m:.4f} {entry[mode]['ap50_per_class']}", flush=True)
+            print(f"{path} [{mode}]: mAP50 = {m:.4f} {entry[mode]['ap50_per_class']}; "
+                  f"recall < {SMALL_PX:.0f} px: {rec_small} of {n_small}", flush=True)
+            print(format_confusion(conf, names), flush=True)
         report["models"][Path(path).name] = entry
     if args.json:
         Path(args.json).write_text(json.dumps(report, indent=2))

@@ -25,7 +25,7 @@ from torch import nn
 import torch.nn.functional as F
 
 STRIDES = (8, 16, 32)
-CLASS_NAMES = ("swimmer", "boat")
+from classes import CLASS_NAMES  # noqa: E402  (torch-free, shared with data.py)
 
 
 class ConvBnAct(nn.Module):

@@ -49,7 +49,7 @@ class FrameReader(CalibrationDataReader):
 def calibration_frames(args, size: tuple[int, int]):
     """Every k-th training frame; odd ones cropped to an input-sized tile (H x W) around their first box."""
     th, tw = size
-    samples = data.load_coco_dir(Path(args.data))
+    samples = data.load_dataset(Path(args.data), "train")
     step = max(1, len(samples) // args.count)
     for i, (path, boxes, _) in enumerate(samples[::step][: args.count]):
         img = data.read_image(path)

@@ -3,18 +3,25 @@
 #
 #   train/run.sh                       # render, train, export, quantise, evaluate
 #   MGMOT_TRAIN_INSTALL=1 train/run.sh # ... and copy the models + metrics into models/
+#   MGMOT_TRAIN_DATA=/data/seadronessee train/run.sh
+#                                      # real footage in the SeaDronesSee layout instead of renders
 #
 # Environment knobs (defaults in brackets):
 #   MGMOT_TRAIN_MINUTES  wall-clock training budget                 [40]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
+#   MGMOT_TRAIN_THREADS  torch threads                               [1]
 #   MGMOT_TRAIN_INSTALL  1 = copy models + metrics into models/     [0]
+#   MGMOT_TRAIN_DATA     a SeaDronesSee-layout dataset (images/{train,val}/, annotations/instances_{train,val}.json):
+#                        train on its train split, evaluate on its val split; nothing is rendered
 #   MGMOT_SIM            a prebuilt mgmot-sim binary  [built: target/release/mgmot-sim]
 #   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
-# Seeds: training renders use seeds 1, 2, ... (every scenario per seed) until
-# MGMOT_TRAIN_FRAMES frames exist; held-out renders use seeds 100001 and
-# 100002 (disjoint). Each (scenario, seed) is a variant from scenarios.py
-# (altitude, gimbal pitch, sea state, sun). torch / numpy are seeded with 1.
+# Seeds and splits (renders): training uses seeds 1, 2, ... (every scenario per seed) until
+# MGMOT_TRAIN_FRAMES frames exist; held-out seeds 100001 and 100002 (same conditions as
+# training, disjoint seeds); held-out conditions: seeds 200001-200003, each variant drawn from
+# one condition training never saw (rough sea, low sun, the 80-100 m altitude band; see
+# scenarios.py). torch / numpy are seeded with 1. A manifest of every rendered sequence and
+# its parameters is written to runs/sim/manifest.json.
 set -euo pipefail
 HERE="$(cd "$(dirname "$0")" && pwd)"
 ROOT="$(cd "$HERE/.." && pwd)"
@@ -35,44 +42,69 @@ fi
 PY="$HERE/.venv/bin/python"
 cd "$HERE"
 
-# 2. Data: JPEG sequences rendered by mgmot-sim (1280x720, SeaDronesSee-style JSON).
-SIM="${MGMOT_SIM:-}"
-if [[ -z "$SIM" ]]; then
-    (cd "$ROOT" && cargo build --release -p mgmot-sim)
-    SIM="$ROOT/target/release/mgmot-sim"
+PY_THREADS="${MGMOT_TRAIN_THREADS:-1}"
+EVAL=()
+if [[ -n "${MGMOT_TRAIN_DATA:-}" ]]; then
+    # 2'. Real footage in the SeaDronesSee layout: nothing to render.
+    "$PY" -c "import data, sys; s = data.load_seadronessee(sys.argv[1], 'train'); print(f'{len(s)} training frames in', sys.argv[1])" "$MGMOT_TRAIN_DATA"
+    TRAIN_DATA="$MGMOT_TRAIN_DATA"
+    EVAL=("val:$MGMOT_TRAIN_DATA")
+else
+    # 2. Data: JPEG sequences rendered by mgmot-sim (1280x720, SeaDronesSee-style JSON).
+    SIM="${MGMOT_SIM:-}"
+    if [[ -z "$SIM" ]]; then
+        (cd "$ROOT" && cargo build --release -p mgmot-sim)
+        SIM="$ROOT/target/release/mgmot-sim"
+    fi
+    count_frames() { find "$1" -name '*.jpg' 2>/dev/null | wc -l; }
+    render() { # split scenario seed
+        local out="$DATA/$1/${2}_s$3"
+        [[ -f "$out/annotations.json" ]] && return 0
+        local toml="$DATA/scenarios/${2}_s$3.toml" every
+        every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$1" --out "$toml" --frames "$PER_SEQ")"
+        rm -rf "$out"
+        "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
+    }
+    seed=1
+    while (( $(count_frames "$DATA/train") < FRAMES )); do
+        for sc in "${SCENARIOS[@]}"; do render train "$sc" "$seed"; done
+        echo "rendered training seed $seed: $(count_frames "$DATA/train") frames"
+        seed=$((seed + 1))
+    done
+    for sc in "${SCENARIOS[@]}"; do
+        for seed in 100001 100002; do render heldout "$sc" "$seed"; done
+        for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
+    done
+    echo "frames: train $(count_frames "$DATA/train"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
+    "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
+    TRAIN_DATA="$DATA/train"
+    EVAL=("heldout:$DATA/heldout" "conditions:$DATA/conditions")
 fi
-count_frames() { find "$1" -name '*.jpg' 2>/dev/null | wc -l; }
-render() { # split scenario seed
-    local out="$DATA/$1/${2}_s$3"
-    [[ -f "$out/annotations.json" ]] && return 0
-    local toml="$DATA/scenarios/${2}_s$3.toml" every
-    every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --out "$toml" --frames "$PER_SEQ")"
-    rm -rf "$out"
-    "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
-}
-seed=1
-while (( $(count_frames "$DATA/train") < FRAMES )); do
-    for sc in "${SCENARIOS[@]}"; do render train "$sc" "$seed"; done
-    seed=$((seed + 1))
-done
-for sc in "${SCENARIOS[@]}"; do
-    for seed in 100001 100002; do render heldout "$sc" "$seed"; done
-done
-echo "frames: train $(count_frames "$DATA/train"), held-out $(count_frames "$DATA/heldout")"
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
 # 3. Train (time-bounded), 4. export fp32, 5. quantise int8, 6. evaluate both.
-"$PY" train.py --data "$DATA/train" --crop 192 --batch 16 --threads 1 --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
+"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
-    --description "mgmot TinyDet swimmer/boat detector, trained on mgmot-sim frames"
-"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$DATA/train" --count 128
-"$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$DATA/heldout" --count 441 --json "$RUN/metrics.json"
+    --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
+"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 128
+for e in "${EVAL[@]}"; do
+    name="${e%%:*}" dir="${e#*:}"
+    "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$dir" --split val \
+        --count 600 --threads "$PY_THREADS" --json "$RUN/metrics-$name.json" | tee "$RUN/metrics-$name.txt"
+done
+"$PY" -c "
+import json, sys
+run = sys.argv[1]
+names = sys.argv[2:]
+json.dump({n: json.load(open(f'{run}/metrics-{n}.json')) for n in names}, open(f'{run}/metrics.json', 'w'), indent=2)
+" "$RUN" "${EVAL[@]%%:*}"
 
 if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     cp "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" "$ROOT/models/"
     cp "$RUN/metrics.json" "$ROOT/models/metrics.json"
     cp "$RUN/tinydet.log.json" "$ROOT/models/training-log.json"
+    [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"
     echo "installed into $ROOT/models (update models/README.md with metrics.json)"
 fi
 echo "done: $RUN"

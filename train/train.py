@@ -183,7 +183,8 @@ class Batches(torch.utils.data.IterableDataset):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--data", required=True, help="directory of rendered sim sequences")
+    ap.add_argument("--data", required=True, help="rendered sim sequences, or a SeaDronesSee-layout dataset (see data.py)")
+    ap.add_argument("--split", default="train", help="split of a SeaDronesSee-layout dataset")
     ap.add_argument("--out", required=True)
     ap.add_argument("--crop", type=int, default=256)
     ap.add_argument("--batch", type=int, default=16)
@@ -197,11 +198,15 @@ def main():
 
     seed_everything(args.seed)
     torch.set_num_threads(args.threads)
-    samples = data.load_coco_dir(Path(args.data))
+    try:
+        samples = data.load_dataset(Path(args.data), args.split)
+    except data.DatasetError as e:
+        raise SystemExit(f"error: {e}") from e
     if not samples:
         raise SystemExit(f"no labelled frames found under {args.data}")
     nboxes = sum(len(c) for _, _, c in samples)
-    print(f"{len(samples)} training frames, {nboxes} boxes", flush=True)
+    per_class = {n: sum(int((c == k).sum()) for _, _, c in samples) for k, n in enumerate(data.class_names())}
+    print(f"{len(samples)} training frames, {nboxes} boxes {per_class}", flush=True)
     model = TinyDet()
     if args.init:
         model.load_state_dict(torch.load(args.init, map_location="cpu")["model"])
