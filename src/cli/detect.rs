@@ -1,8 +1,9 @@
 //! `mgmot detect`: run the detector over an image or a folder of images.
 //!
 //! Writes COCO results JSON (`[{image_id, category_id, bbox, score}]`, with
-//! `category_id = class index + 1`, which is SeaDronesSee's numbering for the
-//! shipped model's swimmer = 1, boat = 2) to stdout with `--json` and to
+//! `category_id` SeaDronesSee's id of the class's name: 1 swimmer, 2 boat, 3 jetski,
+//! 4 life-saving appliance, 5 buoy, whatever order the model lists them in; see
+//! `detect::model::category_ids_for`) to stdout with `--json` and to
 //! `OUT/detections.json` with `--out`, where it also draws the boxes on a copy
 //! of each image. Each entry also carries `appearance`, the box's colour signature in hex
 //! (`mgmot::track::Appearance`), when the box shows enough of the object; `mgmot track`
@@ -131,6 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let mut detector = Detector::load(config)?;
     let names = detector.model().class_names.clone();
+    let categories = detector.model().category_ids.clone();
     let mut stdout = Stdout::lock();
     if !args.json {
         writeln!(
@@ -179,7 +181,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         results.extend(dets.iter().map(|d| CocoResult {
             image_id,
-            category_id: d.class_id + 1,
+            category_id: categories.get(d.class_id).map_or(0, |&c| c as usize),
             category_name: class_name(&names, d.class_id).to_string(),
             bbox: [d.bbox.x_px, d.bbox.y_px, d.bbox.w_px, d.bbox.h_px],
             score: d.score,

@@ -207,6 +207,7 @@ impl Detector {
             layout: OutputLayout::ChannelsFirst,
             num_candidates: 0,
             class_names: Vec::new(),
+            category_ids: Vec::new(),
         };
         let mut detector = Detector {
             session,
@@ -247,7 +248,16 @@ impl Detector {
                 (0..nc).map(|i| format!("class{i}")).collect()
             }
         };
-        tracing::info!(model = %path.display(), %backend, input_w = in_w, input_h = in_h, classes = ?info.class_names, candidates = n, "detector loaded");
+        let (category_ids, unknown) = super::model::category_ids_for(&info.class_names);
+        if !unknown.is_empty() {
+            if unknown.len() == info.class_names.len() {
+                tracing::warn!(model = %path.display(), classes = ?info.class_names, "no class name is a SeaDronesSee class (swimmer, boat, jetski, life_saving_appliances, buoy); class k is reported as category k + 1");
+            } else {
+                tracing::warn!(model = %path.display(), unknown = ?unknown, "class names that are none of SeaDronesSee's five are reported as category 0 (other object)");
+            }
+        }
+        info.category_ids = category_ids;
+        tracing::info!(model = %path.display(), %backend, input_w = in_w, input_h = in_h, classes = ?info.class_names, categories = ?info.category_ids, candidates = n, "detector loaded");
         detector.info = info;
         Ok(detector)
     }

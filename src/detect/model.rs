@@ -39,6 +39,84 @@ pub struct ModelInfo {
     pub num_candidates: usize,
     /// Class names, indexed by class id; its length is the number of classes.
     pub class_names: Vec<String>,
+    /// The SeaDronesSee category id of each class (indexed like `class_names`), from the
+    /// names ([`category_ids_for`]): what `mgmot detect` writes and what the tracker and
+    /// MAVLink carry, whatever order or spelling the model uses.
+    pub category_ids: Vec<u32>,
+}
+
+impl ModelInfo {
+    /// The SeaDronesSee category id of class `class_id` (0, "other object", when out of range).
+    pub fn category_id(&self, class_id: usize) -> u32 {
+        self.category_ids.get(class_id).copied().unwrap_or(0)
+    }
+}
+
+/// SeaDronesSee's categories: id 1 swimmer, 2 boat, 3 jetski, 4 life-saving appliance, 5 buoy.
+pub const SEADRONESSEE_CATEGORIES: [(u32, &str); 5] = [
+    (1, "swimmer"),
+    (2, "boat"),
+    (3, "jetski"),
+    (4, "life_saving_appliances"),
+    (5, "buoy"),
+];
+
+/// The SeaDronesSee category id a class name stands for, or `None` for a name that is none
+/// of the five. Case, spaces, hyphens and underscores do not matter; common synonyms of
+/// other datasets and exports are accepted (`person` for swimmer, `life ring` for a
+/// life-saving appliance, ...).
+pub fn seadronessee_category(name: &str) -> Option<u32> {
+    let key: String = name
+        .chars()
+        .filter(|c| !matches!(c, ' ' | '_' | '-'))
+        .flat_map(char::to_lowercase)
+        .collect();
+    let id = match key.as_str() {
+        "swimmer"
+        | "swimmers"
+        | "swimmerwithlifejacket"
+        | "person"
+        | "people"
+        | "human"
+        | "personinwater" => 1,
+        "boat" | "boats" | "ship" | "vessel" => 2,
+        "jetski" | "jetskis" | "personalwatercraft" => 3,
+        "lifesavingappliances"
+        | "lifesavingappliance"
+        | "lifebuoy"
+        | "lifering"
+        | "liferaft"
+        | "lifejacket" => 4,
+        "buoy" | "buoys" => 5,
+        _ => return None,
+    };
+    Some(id)
+}
+
+/// The SeaDronesSee category id of each class name, and the names that are none of the five.
+///
+/// A model whose names all map (mgmot's own, or an Ultralytics export trained on
+/// SeaDronesSee, in any order) gets their ids. Names that do not map get 0 ("other
+/// object"), unless none of the names maps at all (a model with no names, or `class0`,
+/// `class1`, ...): then class `k` is category `k + 1`, SeaDronesSee's order.
+pub fn category_ids_for(names: &[String]) -> (Vec<u32>, Vec<String>) {
+    let mapped: Vec<Option<u32>> = names.iter().map(|n| seadronessee_category(n)).collect();
+    let unknown: Vec<String> = names
+        .iter()
+        .zip(&mapped)
+        .filter(|(_, m)| m.is_none())
+        .map(|(n, _)| n.clone())
+        .collect();
+    if mapped.iter().all(Option::is_none) {
+        let ids = (1..=names.len())
+            .map(|k| u32::try_from(k).unwrap_or(u32::MAX))
+            .collect();
+        return (ids, unknown);
+    }
+    (
+        mapped.into_iter().map(|m| m.unwrap_or(0)).collect(),
+        unknown,
+    )
 }
 
 /// The metadata entries mgmot reads from an ONNX file.
@@ -233,6 +311,35 @@ mod tests {
             vec!["a", "b"]
         );
         assert_eq!(parse_class_names("{0: 'it\\'s'}").unwrap(), vec!["it's"]);
+    }
+
+    #[test]
+    fn class_names_map_to_seadronessee_ids_in_any_order() {
+        let names = |v: &[&str]| v.iter().map(|s| (*s).to_owned()).collect::<Vec<_>>();
+        let (ids, unknown) = category_ids_for(&names(&[
+            "swimmer",
+            "boat",
+            "jetski",
+            "life_saving_appliances",
+            "buoy",
+        ]));
+        assert_eq!(ids, [1, 2, 3, 4, 5]);
+        assert!(unknown.is_empty());
+        // An export in another order and spelling lands on the same ids.
+        let (ids, _) =
+            category_ids_for(&names(&["Buoy", "life ring", "Jet-Ski", "person", "Boat"]));
+        assert_eq!(ids, [5, 4, 3, 1, 2]);
+        // A name that is none of the five is "other object" (0), the rest still map.
+        let (ids, unknown) = category_ids_for(&names(&["swimmer", "kayak"]));
+        assert_eq!(ids, [1, 0]);
+        assert_eq!(unknown, ["kayak"]);
+        // No name maps (no metadata): SeaDronesSee's order.
+        let (ids, unknown) = category_ids_for(&names(&["class0", "class1"]));
+        assert_eq!(ids, [1, 2]);
+        assert_eq!(unknown.len(), 2);
+        for (id, name) in SEADRONESSEE_CATEGORIES {
+            assert_eq!(seadronessee_category(name), Some(id));
+        }
     }
 
     #[test]

@@ -84,12 +84,13 @@ impl DetectStage for OnnxStage {
             .detect_timed(&image)
             .map_err(|e| failed(e.to_string()))?;
         self.last = Some(timings);
+        let model = self.inner.model();
         Ok(found
             .into_iter()
             .map(|d| Detection {
                 bbox: d.track_bbox(),
                 score: d.score,
-                class_id: u32::try_from(d.class_id).map_or(u32::MAX, |c| c.saturating_add(1)),
+                class_id: model.category_id(d.class_id),
                 world: None,
                 appearance: d.appearance(&image),
             })
