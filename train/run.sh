@@ -11,6 +11,7 @@
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
 #   MGMOT_TRAIN_THREADS  torch threads                               [1]
+#   MGMOT_TRAIN_INIT_REV the commit whose models/mgmot-det-fp32.onnx starts training, or none [8817652]
 #   MGMOT_TRAIN_INSTALL  1 = copy models + metrics into models/     [0]
 #   MGMOT_TRAIN_DATA     a SeaDronesSee-layout dataset (images/{train,val}/, annotations/instances_{train,val}.json):
 #                        train on its train split, evaluate on its val split; nothing is rendered
@@ -82,8 +83,16 @@ else
 fi
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
-# 3. Train (time-bounded), 4. export fp32, 5. quantise int8, 6. evaluate both.
-"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MINUTES" --seed 1 --out "$RUN/tinydet.pt"
+# 3. Train (time-bounded), warm-started from the two-class model shipped at INIT_REV (taken from
+#    git, so the start is the same on every machine; MGMOT_TRAIN_INIT_REV=none: from scratch).
+INIT_REV="${MGMOT_TRAIN_INIT_REV:-8817652}"
+INIT=()
+if [[ "$INIT_REV" != none ]]; then
+    git -C "$ROOT" show "$INIT_REV:models/mgmot-det-fp32.onnx" > "$RUN/init.onnx"
+    INIT=(--init-onnx "$RUN/init.onnx")
+fi
+"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MINUTES" --seed 1 \
+    "${INIT[@]}" --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"

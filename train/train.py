@@ -194,6 +194,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=1, help="torch threads (the batch loader is one more process)")
     ap.add_argument("--init", help="start from this checkpoint (continue training)")
+    ap.add_argument("--init-onnx", help="start from the weights of this exported model (warm_start.py)")
     args = ap.parse_args()
 
     seed_everything(args.seed)
@@ -218,6 +219,12 @@ def main():
         Batches(samples, args.crop, args.batch, args.seed), batch_size=None, num_workers=1, prefetch_factor=4
     )
     batches = iter(loader)
+    if args.init_onnx:
+        import warm_start
+
+        calib = [next(batches)[0] for _ in range(8)]
+        summary = warm_start.load_onnx_weights(model, args.init_onnx, data.class_names(), calib)
+        print(f"warm start from {args.init_onnx}: {summary}", flush=True)
     budget_s = args.minutes * 60.0
     t0 = time.time()
     step = 0
