@@ -743,11 +743,11 @@ impl Renderer {
 const FOAM_RGB: [f32; 3] = [236.0, 242.0, 244.0];
 
 /// Whitecaps on the swell texture's grid: patches on the highest crests, covering a
-/// fraction growing with the wave height (none below 0.4 m), and faint
+/// fraction growing with the wave height (none below 0.45 m), and faint
 /// foam streaks along the wave (wind) direction; `None` when there would be none. The
 /// renderer shows them only in part of the area (whitecaps come in groups).
 fn make_foam(rng: &mut ChaCha8Rng, swell: &[f32], wave_height_m: f64) -> Option<Box<Texture>> {
-    let cover = ((wave_height_m - 0.4) * 0.06).clamp(0.0, 0.12) as f32;
+    let cover = ((wave_height_m - 0.45) * 0.05).clamp(0.0, 0.1) as f32;
     if cover <= 0.0 {
         return None;
     }
@@ -1174,6 +1174,40 @@ mod tests {
                 r.height()
             );
         }
+    }
+
+    /// Whitecaps only in a rough enough sea; the `[render]` switches change the pixels and
+    /// the same renderer renders the same frame twice.
+    #[test]
+    fn render_switches_and_whitecaps() {
+        let mut s = Scenario::load("boats_crossing").unwrap();
+        s.camera.width_px = 320;
+        s.camera.height_px = 180;
+        s.sea.wave_height_m = 0.3;
+        assert!(Renderer::new(&s, 1).foam.is_none());
+        s.sea.wave_height_m = 1.5;
+        assert!(Renderer::new(&s, 1).foam.is_some());
+        s.render.whitecaps = false;
+        assert!(Renderer::new(&s, 1).foam.is_none());
+        s.render.whitecaps = true;
+
+        let optics = Optics::new(&s).unwrap();
+        let world = World::new(s.clone(), 1);
+        let r = Renderer::new(&s, 1);
+        let mut a = vec![0u8; r.frame_bytes()];
+        let mut b = vec![0u8; r.frame_bytes()];
+        r.render(&world, &optics, 12.0, &mut a, true);
+        r.render(&world, &optics, 12.0, &mut b, true);
+        assert!(a == b);
+        let mut plain = s.clone();
+        plain.render = crate::scenario::Render::off();
+        let rp = Renderer::new(&plain, 1);
+        rp.render(&world, &optics, 12.0, &mut b, true);
+        assert!(a != b);
+        // The noise differs from frame to frame.
+        r.render(&world, &optics, 12.0, &mut a, false);
+        r.render(&world, &optics, 12.0 + 1e-6, &mut b, false);
+        assert!(a != b);
     }
 
     #[test]

@@ -325,12 +325,12 @@ fn swimmer(p: &mut Painter<'_, '_, '_>, o: &ObjectState, var: u64) {
     if o.lifejacket {
         let jacket = JACKETS[pal % JACKETS.len()];
         let outline = [
-            [-l * 0.3, -w * 0.42],
+            [-l * 0.42, -w * 0.42],
             [l * 0.15, -w * 0.5],
-            [l * 0.3, -w * 0.3],
-            [l * 0.3, w * 0.3],
+            [l * 0.38, -w * 0.32],
+            [l * 0.38, w * 0.32],
             [l * 0.15, w * 0.5],
-            [-l * 0.3, w * 0.42],
+            [-l * 0.42, w * 0.42],
         ];
         p.prism(&outline, 0.0, h * 0.45, jacket);
         // Reflective strip and the collar's inner shadow.

@@ -367,7 +367,7 @@ pub struct Render {
     pub object_shading: bool,
     /// Foam wakes behind moving boats and jetskis.
     pub wakes: bool,
-    /// Whitecaps and foam streaks, growing with `sea.wave_height_m` (none below ~0.4 m).
+    /// Whitecaps and foam streaks, growing with `sea.wave_height_m` (none below ~0.45 m).
     pub whitecaps: bool,
     /// Sky reflection on the water by the Fresnel law (more sky towards the horizon).
     pub sky_reflection: bool,
