@@ -10,6 +10,7 @@ mod cli_validation;
 mod cli_validation_io;
 mod detect_cli;
 mod detect_model;
+mod detect_ultralytics;
 mod eval_cli;
 mod eval_motmetrics;
 mod eval_trackeval_fixtures;

@@ -52,8 +52,11 @@ pub struct OnnxDetectorConfig {
     /// At most this many detections per frame.
     #[serde(default = "default_max_detections")]
     pub max_detections: usize,
-    /// Class names overriding the model's metadata, in the model's class order (class
-    /// index `i` becomes track class id `i + 1`).
+    /// Class names overriding the model's metadata, in the model's class order. The names,
+    /// not the indices, decide the track class ids: each is mapped to its SeaDronesSee
+    /// category (1 swimmer, 2 boat, 3 jetski, 4 life-saving appliance, 5 buoy, with common
+    /// synonyms; 0 for a name that is none of them), see
+    /// [`crate::detect::model::category_ids_for`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub class_names: Option<Vec<String>>,
     /// Run the model on overlapping tiles at native resolution (plus the whole frame, for
