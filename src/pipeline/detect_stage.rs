@@ -42,9 +42,10 @@ pub trait DetectStage: Send {
     }
 }
 
-/// The ONNX detector of `mgmot::detect` on the pipeline's frames. Class index `i` of the model
-/// becomes track class id `i + 1`, as in `mgmot detect`'s COCO output: for the shipped model
-/// (and any model whose classes follow SeaDronesSee's order) 1 swimmer, 2 boat, the ids the
+/// The ONNX detector of `mgmot::detect` on the pipeline's frames. A class's track class id is
+/// the SeaDronesSee category of its NAME ([`detect::ModelInfo::category_id`]), as in
+/// `mgmot detect`'s COCO output: 1 swimmer, 2 boat, 3 jetski, 4 life-saving appliance, 5 buoy
+/// (0 for a name that is none of them), whatever the class's index in the model; the ids the
 /// tracker's per-class thresholds are keyed by.
 #[derive(Debug)]
 pub struct OnnxStage {
