@@ -373,7 +373,7 @@ pub struct Render {
     pub sky_reflection: bool,
     /// Large-scale colour variation of the water (patches of bluer / greener / greyer sea).
     pub color_variation: bool,
-    /// Sensor noise level (0: none; 1: a typical small drone camera in daylight).
+    /// Sensor noise level, 0 (none) to 2.5; 1: a typical small drone camera in daylight.
     pub camera_noise: f64,
     /// Slow, seeded exposure and white-balance drift.
     pub exposure_drift: bool,

@@ -419,9 +419,9 @@ fn check_sea(s: &Sea, p: &mut Problems) {
 /// `render.*`.
 fn check_render(r: &Render, p: &mut Problems) {
     p.require(
-        finite(r.camera_noise) && (0.0..=10.0).contains(&r.camera_noise),
+        finite(r.camera_noise) && (0.0..=2.5).contains(&r.camera_noise),
         "render.camera_noise",
-        "must be within [0, 10]",
+        "must be within [0, 2.5]",
     );
     p.require(
         finite(r.vignetting) && (0.0..=1.0).contains(&r.vignetting),
