@@ -291,29 +291,24 @@ fn swimmer(p: &mut Painter<'_, '_, '_>, o: &ObjectState, var: u64) {
     );
     let show_shoulders = pose > 0 || o.lifejacket;
     if show_shoulders {
-        p.waterline(
-            &[
-                [-l * 0.3, -w * 0.45],
-                [l * 0.25, -w * 0.45],
-                [l * 0.25, w * 0.45],
-                [-l * 0.3, w * 0.45],
-            ],
-            0.2,
-            0.3,
-        );
+        let oval: Vec<[f64; 2]> = ring(-l * 0.02, 0.0, l * 0.4, w * 0.46, 0.0, 12)
+            .iter()
+            .map(|q| [q[0], q[1]])
+            .collect();
+        p.waterline(&oval, 0.2, 0.25);
     }
     if pose == 2 {
         // Arms: forward-reaching, partly under water.
         for side in [-1.0, 1.0] {
             p.part(
                 &[
-                    [-0.02, side * w * 0.36, 0.02],
-                    [-0.02, side * w * 0.48, 0.02],
-                    [l * 0.48, side * w * 0.42, 0.0],
-                    [l * 0.48, side * w * 0.34, 0.0],
+                    [-0.04, side * w * 0.3, 0.03],
+                    [-0.04, side * w * 0.5, 0.03],
+                    [l * 0.48, side * w * 0.46, 0.0],
+                    [l * 0.48, side * w * 0.3, 0.0],
                 ],
                 if o.lifejacket { skin } else { clothes },
-                0.8 - under,
+                0.9 - under,
             );
             p.part(
                 &ring(l * 0.46, side * w * 0.38, 0.05, 0.045, 0.02, 6),
