@@ -561,11 +561,9 @@ impl Renderer {
             (tn * 256.0) as i64 as i32,
             (te * 256.0) as i64 as i32,
         );
-        let t2 = sample_bilinear_fixed(
-            &self.tint,
-            (te * 256.0) as i64 as i32 + 40_000,
-            (tn * 256.0) as i64 as i32 + 17_000,
-        );
+        // The second field: the same texture, transposed and shifted, nearest texel (it
+        // is interpolated along the span anyway).
+        let t2 = f32::from(self.tint[tex_index(te as i64 as i32 + 157, tn as i64 as i32 + 66)]);
         let (b, gb) = (
             1.0 + self.tint_amp * 0.22 * (t1 / 255.0 - 0.5),
             self.tint_amp * 0.16 * (t2 / 255.0 - 0.5),
