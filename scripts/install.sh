@@ -154,8 +154,9 @@ sed -e "s|/usr/local/|$prefix/|g" systemd/mgmot.service >"$work/mgmot.service"
 sed -e "s|\"/usr/local/|\"$prefix/|g" systemd/mgmot.example.toml >"$work/mgmot.example.toml"
 cp "$work/mgmot.example.toml" "$work/mgmot.toml"
 if [ "$tract" = 1 ]; then
-  sed -i -e 's|^backend = "onnxruntime"|backend = "tract"|' \
+  sed -i -e 's|^backend = ".*"|backend = "tract"|' \
     -e 's|^model = "\(.*\)/mgmot-det-int8.onnx"|model = "\1/mgmot-det-fp32.onnx"|' \
+    -e 's|^alternatives = |# alternatives = |' \
     -e 's|^ort_library = |# ort_library = |' "$work/mgmot.toml"
 fi
 install -m 0644 "$work/mgmot.service" "$unitdir/mgmot.service"

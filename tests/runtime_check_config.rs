@@ -166,3 +166,194 @@ fn flight_day_12_run_says_its_start_up_error_once() {
         "{stderr}"
     );
 }
+
+const INT8: &str = "models/mgmot-det-int8.onnx";
+const FP32: &str = "models/mgmot-det-fp32.onnx";
+
+/// A copy of the fp32 model in `dir` whose class `swimmer` is called `swimmex` (same length:
+/// the protobuf stays valid), whatever the other classes.
+fn renamed_class_model(dir: &TestDir) -> std::path::PathBuf {
+    let mut bytes = std::fs::read(repo_file(FP32)).unwrap();
+    let at = bytes
+        .windows(9)
+        .position(|w| w == b"'swimmer'")
+        .expect("the fp32 model names a swimmer class");
+    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
+    dir.write("renamed.onnx", bytes)
+}
+
+/// `[detector] alternatives`: each must be a readable model with the main model's class names
+/// and input size; `check-config` names the file under the key.
+#[test]
+fn check_config_refuses_a_missing_or_mismatched_alternative() {
+    let dir = TestDir::new();
+    let missing = dir.join("models/gone.onnx");
+    let renamed = renamed_class_model(&dir);
+    let config = example_config_with_detector(&dir, &repo_file(INT8), "auto", None);
+    let with = |alternatives: &[&Path]| {
+        let list: Vec<String> = alternatives
+            .iter()
+            .map(|p| format!("{:?}", p.display().to_string()))
+            .collect();
+        let text = std::fs::read_to_string(&config).unwrap().replace(
+            "\nbackend = \"auto\"\n",
+            &format!(
+                "\nalternatives = [{}]\nbackend = \"auto\"\n",
+                list.join(", ")
+            ),
+        );
+        assert!(text.contains("alternatives = ["), "{text}");
+        dir.write("alternatives.toml", text)
+    };
+    let ok = mgmot()
+        .arg("check-config")
+        .arg(with(&[&repo_file(FP32)]))
+        .env_remove("ORT_DYLIB_PATH")
+        .output();
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let stderr = check_config_refused(&with(&[&repo_file(FP32), &missing, &renamed]), None);
+    assert_eq!(
+        stderr.matches("`detector.alternatives`").count(),
+        2,
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&missing.display().to_string()) && stderr.contains("no such file"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&renamed.display().to_string()) && stderr.contains("class names"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("mgmot-det-fp32.onnx"), "{stderr}");
+}
+
+/// `mgmot run` with `backend = "auto"`, the int8 model and its fp32 alternative, on the two
+/// detector fixture frames, with `ORT_DYLIB_PATH` set to `ort` (or unset): its stderr (INFO)
+/// and its `--stats-json`.
+fn auto_run(ort: Option<&Path>) -> (String, serde_json::Value) {
+    use mgmot::config::{DetectorConfig, FramesConfig, OnnxDetectorConfig};
+    let dir = TestDir::new();
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for name in [
+        "sim_boats_crossing_s100002_000631.jpg",
+        "sim_leave_and_return_s100002_000001.jpg",
+    ] {
+        std::fs::copy(
+            repo_file("tests/fixtures/detect").join(name),
+            frames.join(name),
+        )
+        .unwrap();
+    }
+    let gcs = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut c = common::run_config(
+        &format!("udpout:127.0.0.1:{}", gcs.local_addr().unwrap().port()),
+        &dir.join("unused.sock"),
+        &dir.empty_detections(),
+    );
+    c.mavlink.stream_rate_hz = 0.0;
+    c.frames = FramesConfig::Images {
+        directory: frames,
+        fps: 10.0,
+        looping: false,
+    };
+    let mut onnx: OnnxDetectorConfig =
+        toml::from_str("model = \"\"").expect("the ONNX detector's defaults");
+    onnx.model = repo_file(INT8);
+    onnx.alternatives = vec![repo_file(FP32)];
+    c.detector = DetectorConfig::Onnx(onnx);
+    let config = dir.write_config("run.toml", &c);
+    let stats = dir.join("stats.json");
+    let mut run = common::mgmot_run(&config, Some(&stats));
+    run.env("RUST_LOG", "info");
+    match ort {
+        Some(lib) => run.env("ORT_DYLIB_PATH", lib),
+        None => run.env_remove("ORT_DYLIB_PATH"),
+    };
+    let out = run.output_within(std::time::Duration::from_secs(120), "mgmot run (auto)");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    (stderr, stats)
+}
+
+/// The INFO line of the choice, and the stats' `detector` entry: every candidate measured,
+/// the fastest chosen. Returns the chosen backend.
+fn assert_chose_the_fastest(stderr: &str, stats: &serde_json::Value, backends: &[&str]) -> String {
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("INFO") && l.contains("detector: chose"))
+        .unwrap_or_else(|| panic!("no INFO line of the choice: {stderr}"));
+    let d = &stats["detector"];
+    let measured = d["measurements"].as_array().unwrap();
+    assert_eq!(measured.len(), 2 * backends.len(), "{d}");
+    for backend in backends {
+        for model in ["mgmot-det-int8.onnx", "mgmot-det-fp32.onnx"] {
+            let named = format!("{backend} {model} ");
+            let at = line
+                .find(&named)
+                .unwrap_or_else(|| panic!("{named:?} not in {line}"));
+            let ms: f64 = line[at + named.len()..]
+                .split(" ms")
+                .next()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or_else(|| panic!("no time after {named:?} in {line}"));
+            assert!(ms > 0.0, "{line}");
+        }
+    }
+    let fastest = measured
+        .iter()
+        .min_by_key(|m| m["median_us"].as_u64().unwrap())
+        .unwrap();
+    assert_eq!(d["backend"], fastest["backend"], "{d}");
+    assert_eq!(d["model"], fastest["model"], "{d}");
+    assert_eq!(d["requested"], "auto", "{d}");
+    assert!(d["measuring_us"].as_u64().unwrap() > 0, "{d}");
+    d["backend"].as_str().unwrap().to_owned()
+}
+
+/// `backend = "auto"` where ONNX Runtime is found: all four (backend, model) pairs are timed,
+/// the log names both backends' times, and the fastest runs.
+#[test]
+fn run_with_backend_auto_times_both_backends_and_runs_the_fastest() {
+    let lib = std::env::var_os("ORT_DYLIB_PATH")
+        .map(std::path::PathBuf::from)
+        .filter(|p| p.is_file())
+        .unwrap_or_else(|| {
+            common::missing_tool(
+                "backend auto with ONNX Runtime",
+                "ORT_DYLIB_PATH naming libonnxruntime.so (scripts/detect_fetch_onnxruntime.sh)",
+            )
+        });
+    let (stderr, stats) = auto_run(Some(&lib));
+    let chosen = assert_chose_the_fastest(&stderr, &stats, &["tract", "onnxruntime"]);
+    // The chosen backend is the one the process then loads.
+    assert!(
+        stderr.contains(&format!("backend={chosen}"))
+            || stderr.contains(&format!("backend: {chosen}")),
+        "{stderr}"
+    );
+    assert!(stats["frames_processed"].as_u64().unwrap() > 0, "{stats}");
+}
+
+/// `backend = "auto"` without ONNX Runtime: the log says why it is not a candidate, and tract
+/// runs the faster of the two models.
+#[test]
+fn run_with_backend_auto_without_onnxruntime_times_tract_only() {
+    let (stderr, stats) = auto_run(None);
+    let said = stderr
+        .lines()
+        .find(|l| l.contains("not a candidate") && l.contains("onnxruntime"))
+        .unwrap_or_else(|| panic!("no line on onnxruntime's absence: {stderr}"));
+    assert!(said.contains("ORT_DYLIB_PATH"), "{said}");
+    assert_eq!(
+        assert_chose_the_fastest(&stderr, &stats, &["tract"]),
+        "tract"
+    );
+}

@@ -95,7 +95,7 @@ fn write_config(dir: &TestDir, mgmot_port: u16, spec: &Spec) -> PathBuf {
         let mut onnx: OnnxDetectorConfig =
             toml::from_str("model = \"\"").expect("the ONNX detector's defaults");
         onnx.model = common::repo_file("models/mgmot-det-fp32.onnx");
-        onnx.backend = backend;
+        onnx.backend = backend.into();
         if backend == BackendKind::OnnxRuntime {
             let lib = std::env::var_os("ORT_DYLIB_PATH")
                 .map(PathBuf::from)

@@ -47,7 +47,10 @@ fn valid(config: &Config, settings: &Settings) {
         );
     }
     if let DetectorSettings::Onnx(onnx) = &settings.detector {
-        assert!(onnx.threads >= 1 && onnx.max_detections >= 1, "{onnx:?}");
+        assert!(
+            onnx.detector.threads >= 1 && onnx.detector.max_detections >= 1,
+            "{onnx:?}"
+        );
     }
     if let Err(e) = mgmot::track::Tracker::new(settings.tracker.clone()) {
         panic!("validated tracker parameters refused: {e}");

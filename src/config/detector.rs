@@ -1,7 +1,7 @@
 //! `[detector]`: what finds objects in frames (the ONNX detector, or replayed detections).
 
 use super::problems::Problems;
-use crate::detect::{BackendConfig, BackendKind, TilingConfig};
+use crate::detect::{BackendChoice, BackendConfig, BackendKind, TilingConfig};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -30,9 +30,15 @@ pub struct OnnxDetectorConfig {
     /// The model file: `models/mgmot-det-int8.onnx` (fastest on onnxruntime),
     /// `models/mgmot-det-fp32.onnx` (fastest on tract), or a YOLOv8 / YOLO11 export.
     pub model: PathBuf,
-    /// Inference engine: `tract` (pure Rust, nothing to install) or `onnxruntime`.
+    /// Other model files with the same classes and input size (e.g. the fp32 twin of an int8
+    /// model), timed against `model` at start; the fastest (backend, model) pair runs.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<PathBuf>,
+    /// Inference engine: `auto` (the default: tract, and onnxruntime where its library is
+    /// found, each timed at start with `model` and the `alternatives`; the fastest runs),
+    /// `tract` (pure Rust, nothing to install) or `onnxruntime`.
     #[serde(default = "default_backend")]
-    pub backend: BackendKind,
+    pub backend: BackendChoice,
     /// `libonnxruntime.so` for the onnxruntime backend; absent: `$ORT_DYLIB_PATH`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ort_library: Option<PathBuf>,
@@ -77,8 +83,8 @@ pub struct OnnxDetectorConfig {
 fn one_u64() -> u64 {
     1
 }
-fn default_backend() -> BackendKind {
-    BackendKind::Tract
+fn default_backend() -> BackendChoice {
+    BackendChoice::Auto
 }
 fn default_detector_threads() -> usize {
     2
@@ -102,8 +108,8 @@ fn default_tile_overlap_px() -> u32 {
 /// The validated detector.
 #[derive(Debug, Clone, PartialEq)]
 pub enum DetectorSettings {
-    /// The ONNX detector, with the settings of `mgmot::detect`.
-    Onnx(crate::detect::DetectorConfig),
+    /// The ONNX detector.
+    Onnx(OnnxSettings),
     /// Replayed detections.
     Replay {
         /// COCO results JSON.
@@ -113,24 +119,72 @@ pub enum DetectorSettings {
     },
 }
 
+/// The validated ONNX detector: the settings of `mgmot::detect` for the main model, and how
+/// the (backend, model) pair that runs is chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OnnxSettings {
+    /// The settings of `mgmot::detect` with `[detector] model`; their backend is the configured
+    /// one (tract, a placeholder, under `auto` until [`OnnxSettings::select`] has chosen).
+    pub detector: crate::detect::DetectorConfig,
+    /// `[detector] backend`.
+    pub backend: BackendChoice,
+    /// `[detector] alternatives`: other models to time against the main one.
+    pub alternatives: Vec<PathBuf>,
+}
+
+impl OnnxSettings {
+    /// Settings that run `detector` as they are: its backend, no alternatives.
+    pub fn fixed(detector: crate::detect::DetectorConfig) -> Self {
+        Self {
+            backend: detector.backend.kind.into(),
+            detector,
+            alternatives: Vec::new(),
+        }
+    }
+
+    /// Chooses the (backend, model) pair to run ([`crate::detect::auto::select`]: with one
+    /// candidate it is taken as is, several are timed) and returns the settings of
+    /// `mgmot::detect` for it, with the selection (what was measured, for the log and the
+    /// run's stats).
+    pub fn select(
+        &self,
+    ) -> Result<(crate::detect::DetectorConfig, crate::detect::Selection), crate::detect::DetectError>
+    {
+        let selection =
+            crate::detect::auto::select(&self.detector, self.backend, &self.alternatives)?;
+        Ok((selection.apply(&self.detector), selection))
+    }
+}
+
 impl DetectorSettings {
     /// The files the detector needs at start, looked at on this machine (what
     /// `mgmot check-config` adds to [`DetectorConfig::validate`], which looks at values only):
-    /// the ONNX model must be a readable file and, on the onnxruntime backend, the ONNX
-    /// Runtime library (`detector.ort_library`, else `ORT_DYLIB_PATH`) must exist. Nothing is
-    /// loaded. Problems are pushed onto `p` under the keys that name the files.
+    /// the ONNX model and every alternative must be readable files, and each alternative must
+    /// have the model's class names and input size (their graphs and metadata are read, not
+    /// loaded); the ONNX Runtime library (`detector.ort_library`, else `ORT_DYLIB_PATH`) must
+    /// exist on the onnxruntime backend, and under `auto` when `ort_library` names one (a
+    /// library from `ORT_DYLIB_PATH` that is not there only leaves onnxruntime out of the
+    /// choice). Problems are pushed onto `p` under the keys that name the files.
     pub fn check_files(&self, p: &mut Problems) {
-        let DetectorSettings::Onnx(onnx) = self else {
+        let DetectorSettings::Onnx(settings) = self else {
             return;
         };
-        if let Err(why) = readable_file(&onnx.model_path) {
-            p.push(
-                "detector.model",
-                format!("{}: {why}", onnx.model_path.display()),
-            );
-        }
-        if onnx.backend.kind != BackendKind::OnnxRuntime {
-            return;
+        let onnx = &settings.detector;
+        let model_ok = match readable_file(&onnx.model_path) {
+            Ok(()) => true,
+            Err(why) => {
+                p.push(
+                    "detector.model",
+                    format!("{}: {why}", onnx.model_path.display()),
+                );
+                false
+            }
+        };
+        check_alternatives(settings, model_ok, p);
+        match settings.backend {
+            BackendChoice::Tract => return,
+            BackendChoice::Auto if onnx.backend.ort_dylib_path.is_none() => return,
+            BackendChoice::Auto | BackendChoice::OnnxRuntime => {}
         }
         match (
             &onnx.backend.ort_dylib_path,
@@ -160,6 +214,48 @@ impl DetectorSettings {
     }
 }
 
+/// `detector.alternatives`: each a readable file with the main model's class names and input
+/// size (compared only when the main model, `model_ok`, is readable).
+fn check_alternatives(settings: &OnnxSettings, model_ok: bool, p: &mut Problems) {
+    use crate::detect::auto::ModelInterface;
+    if settings.alternatives.is_empty() {
+        return;
+    }
+    let main = if model_ok {
+        match ModelInterface::read(&settings.detector.model_path) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                p.push("detector.model", e.to_string());
+                None
+            }
+        }
+    } else {
+        None
+    };
+    for alt in &settings.alternatives {
+        if let Err(why) = readable_file(alt) {
+            p.push("detector.alternatives", format!("{}: {why}", alt.display()));
+            continue;
+        }
+        let Some(main) = &main else { continue };
+        match ModelInterface::read(alt) {
+            Err(e) => p.push("detector.alternatives", e.to_string()),
+            Ok(interface) => {
+                if let Some(why) = interface.mismatch(main) {
+                    p.push(
+                        "detector.alternatives",
+                        format!(
+                            "{} cannot stand in for {}: {why}",
+                            alt.display(),
+                            settings.detector.model_path.display()
+                        ),
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// `Ok` when `path` is a file this process can open for reading; otherwise why not.
 fn readable_file(path: &Path) -> Result<(), String> {
     match std::fs::metadata(path) {
@@ -176,7 +272,13 @@ impl DetectorConfig {
     /// The detector's settings, or the section's problems pushed onto `p`.
     pub fn validate(&self, p: &mut Problems) -> Option<DetectorSettings> {
         match self {
-            DetectorConfig::Onnx(onnx) => onnx.validate(p).map(DetectorSettings::Onnx),
+            DetectorConfig::Onnx(onnx) => onnx.validate(p).map(|detector| {
+                DetectorSettings::Onnx(OnnxSettings {
+                    detector,
+                    backend: onnx.backend,
+                    alternatives: onnx.alternatives.clone(),
+                })
+            }),
             DetectorConfig::Replay {
                 detections,
                 first_image_id,
@@ -189,12 +291,13 @@ impl DetectorConfig {
 }
 
 impl OnnxDetectorConfig {
-    /// The settings of `mgmot::detect`, as written (unchecked: see
-    /// [`OnnxDetectorConfig::validate`]).
+    /// The settings of `mgmot::detect` for `model`, as written (unchecked: see
+    /// [`OnnxDetectorConfig::validate`]); under `backend = "auto"` their backend is tract
+    /// until [`OnnxSettings::select`] chooses.
     pub fn settings(&self) -> crate::detect::DetectorConfig {
         let mut c = crate::detect::DetectorConfig::new(&self.model);
         c.backend = BackendConfig {
-            kind: self.backend,
+            kind: self.backend.fixed().unwrap_or(BackendKind::Tract),
             ort_dylib_path: self.ort_library.clone(),
         };
         c.threads = self.threads;
@@ -217,6 +320,9 @@ impl OnnxDetectorConfig {
         self.check_tiles(p);
         if self.model.as_os_str().is_empty() {
             p.push("detector.model", "must name the ONNX model file");
+        }
+        if self.alternatives.iter().any(|a| a.as_os_str().is_empty()) {
+            p.push("detector.alternatives", "must name ONNX model files");
         }
         if self.threads == 0 {
             p.push("detector.threads", "must be >= 1");

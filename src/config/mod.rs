@@ -23,7 +23,7 @@ mod telemetry;
 mod tests;
 
 pub use camera::{CameraConfig, CameraSettings};
-pub use detector::{DetectorConfig, DetectorSettings, OnnxDetectorConfig};
+pub use detector::{DetectorConfig, DetectorSettings, OnnxDetectorConfig, OnnxSettings};
 pub use frames::{FrameSettings, FramesConfig, ReconnectDelays};
 pub use geolocation::{GeolocationConfig, GeolocationSettings, DEFAULT_MAX_RANGE_M};
 pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings};

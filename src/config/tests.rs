@@ -221,6 +221,121 @@ fn onnx_detector_defaults_and_settings() {
     assert_eq!(d.larger_box_iou, None);
 }
 
+/// `backend = "auto"` is the default; `alternatives` are listed model files, handed to the
+/// selection with the backend asked for.
+#[test]
+fn onnx_detector_backend_auto_and_alternatives() {
+    use crate::detect::BackendChoice;
+    let validated = |text: &str| match Config::parse(text).unwrap().validate().unwrap().detector {
+        DetectorSettings::Onnx(o) => o,
+        other => panic!("not the ONNX detector: {other:?}"),
+    };
+    let o = validated(ONNX);
+    assert_eq!(o.backend, BackendChoice::Auto);
+    assert!(o.alternatives.is_empty());
+    // Until auto chooses, the settings run the main model on tract.
+    assert_eq!(o.detector.backend.kind, BackendKind::Tract);
+    let with = |lines: &str| ONNX.replace("kind = \"onnx\"", &format!("kind = \"onnx\"\n{lines}"));
+    let o = validated(&with(
+        "backend = \"auto\"\nalternatives = [\"models/mgmot-det-fp32.onnx\", \"b.onnx\"]",
+    ));
+    assert_eq!(o.backend, BackendChoice::Auto);
+    assert_eq!(
+        o.alternatives,
+        [
+            PathBuf::from("models/mgmot-det-fp32.onnx"),
+            PathBuf::from("b.onnx")
+        ]
+    );
+    for (text, choice, kind) in [
+        ("tract", BackendChoice::Tract, BackendKind::Tract),
+        (
+            "onnxruntime",
+            BackendChoice::OnnxRuntime,
+            BackendKind::OnnxRuntime,
+        ),
+    ] {
+        let o = validated(&with(&format!("backend = {text:?}")));
+        assert_eq!((o.backend, o.detector.backend.kind), (choice, kind));
+        assert_eq!(OnnxSettings::fixed(o.detector.clone()), o);
+    }
+    assert_eq!(
+        problem_keys(&with("alternatives = [\"\"]")),
+        ["detector.alternatives"]
+    );
+    // The key round-trips (the flight record writes the configuration as it took effect).
+    let c = Config::parse(&with("alternatives = [\"b.onnx\"]")).unwrap();
+    let again = Config::parse(&toml::to_string(&c).unwrap()).unwrap();
+    assert_eq!(again.detector, c.detector);
+}
+
+/// `check_files` (what `mgmot check-config` adds): a missing alternative, and one with other
+/// classes or another input size, are problems under `detector.alternatives`; under `auto` a
+/// configured ONNX Runtime library must exist, one from `ORT_DYLIB_PATH` need not.
+#[test]
+fn onnx_detector_alternatives_are_checked_on_disk() {
+    use super::problems::Problems;
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let fp32 = repo.join("models/mgmot-det-fp32.onnx");
+    let int8 = repo.join("models/mgmot-det-int8.onnx");
+    // The fp32 model with its `swimmer` renamed (same length: the protobuf stays valid).
+    let mut bytes = std::fs::read(&fp32).unwrap();
+    let at = bytes.windows(9).position(|w| w == b"'swimmer'").unwrap();
+    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
+    let renamed = dir.path().join("renamed.onnx");
+    std::fs::write(&renamed, bytes).unwrap();
+    let missing = dir.path().join("gone.onnx");
+    let problems = |backend: &str, alternatives: &[&Path], ort: Option<&Path>| {
+        let mut text = ONNX
+            .replace("models/mgmot-det-int8.onnx", &int8.display().to_string())
+            .replace(
+                "kind = \"onnx\"",
+                &format!(
+                    "kind = \"onnx\"\nbackend = {backend:?}\nalternatives = {:?}",
+                    alternatives
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                ),
+            );
+        text = match ort {
+            Some(lib) => text.replace(
+                "/opt/onnxruntime/libonnxruntime.so",
+                &lib.display().to_string(),
+            ),
+            None => text.replace("ort_library = \"/opt/onnxruntime/libonnxruntime.so\"\n", ""),
+        };
+        let settings = Config::parse(&text).unwrap().validate().unwrap();
+        let mut p = Problems::default();
+        settings.detector.check_files(&mut p);
+        if p.is_empty() {
+            return Vec::new();
+        }
+        p.into_vec()
+            .into_iter()
+            .map(|p| format!("{}: {}", p.key, p.problem))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(problems("auto", &[&fp32], None), Vec::<String>::new());
+    let found = problems("tract", &[&fp32, &missing, &renamed], None);
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert!(
+        found[0].starts_with("detector.alternatives: ") && found[0].contains("gone.onnx"),
+        "{found:?}"
+    );
+    assert!(
+        found[1].starts_with("detector.alternatives: ")
+            && found[1].contains("renamed.onnx")
+            && found[1].contains("class names"),
+        "{found:?}"
+    );
+    // A configured library that is not there is a problem under auto too.
+    let found = problems("auto", &[], Some(&missing));
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(found[0].starts_with("detector.ort_library: "), "{found:?}");
+}
+
 fn onnx_settings(c: &Config) -> crate::detect::DetectorConfig {
     match &c.detector {
         DetectorConfig::Onnx(o) => o.settings(),
@@ -387,7 +502,14 @@ fn settings_are_typed() {
     let DetectorConfig::Onnx(onnx) = &c.detector else {
         panic!("{:?}", c.detector)
     };
-    assert_eq!(s.detector, DetectorSettings::Onnx(onnx.settings()));
+    assert_eq!(
+        s.detector,
+        DetectorSettings::Onnx(OnnxSettings {
+            detector: onnx.settings(),
+            backend: onnx.backend,
+            alternatives: onnx.alternatives.clone(),
+        })
+    );
     let off = Config::parse(&V4L2_ONNX.replace("timesync_hz = 4", "timesync_hz = 0")).unwrap();
     assert_eq!(off.validate().unwrap().mavlink.timesync_every, None);
 }

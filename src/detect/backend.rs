@@ -195,7 +195,7 @@ fn forward_ort_log(
 /// the API version this build of ort was compiled against.
 ///
 /// The library is never unloaded: ort keeps calling into it until the process ends.
-fn load_onnxruntime_api(path: &Path) -> Result<ort::sys::OrtApi, DetectError> {
+pub(super) fn load_onnxruntime_api(path: &Path) -> Result<ort::sys::OrtApi, DetectError> {
     let err = |problem: String| DetectError::OrtLibrary {
         path: path.to_path_buf(),
         problem,

@@ -441,7 +441,7 @@ fn preallocated_output(name: &str, dims: &[i64]) -> ort::Result<RunOptions<HasSe
 }
 
 /// tract's plan for the model in `bytes` with its image input fixed at (1, 3, `h`, `w`).
-fn tract_plan(bytes: &[u8], w: u32, h: u32) -> Result<TractPlan, String> {
+pub(super) fn tract_plan(bytes: &[u8], w: u32, h: u32) -> Result<TractPlan, String> {
     use tract_onnx::prelude::*;
     let shape = [1usize, 3, h as usize, w as usize];
     tract_onnx::onnx()

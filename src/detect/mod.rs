@@ -19,6 +19,7 @@
 //! later request for the other backend fails with
 //! [`DetectError::BackendConflict`].
 
+pub mod auto;
 pub mod backend;
 mod detector;
 pub mod model;
@@ -30,6 +31,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
+pub use auto::{BackendChoice, Measurement, Selection};
 pub use backend::{BackendConfig, BackendKind, ORT_DYLIB_ENV};
 pub use detector::{DetectTimings, Detector, DetectorConfig, DEFAULT_NMS_IOU};
 pub use model::{ModelInfo, OutputLayout};

@@ -83,7 +83,7 @@ pub(super) fn start(
 /// The model's (or the replayed detections') file name and SHA-256.
 fn detector_identity(d: &DetectorSettings) -> DetectorIdentity {
     let (kind, path): (&str, &Path) = match d {
-        DetectorSettings::Onnx(o) => ("onnx", &o.model_path),
+        DetectorSettings::Onnx(o) => ("onnx", &o.detector.model_path),
         DetectorSettings::Replay { detections, .. } => ("replay", detections),
     };
     let (sha256, bytes) = flight::sha256_of(path).unwrap_or_else(|e| {

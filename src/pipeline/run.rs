@@ -5,7 +5,7 @@
 //! the link last so that what is queued goes out.
 
 use super::capture::Delivered;
-use super::detect_stage::{DetectStage, OnnxStage, ReplayStage};
+use super::detect_stage::{DetectStage, DetectStageError, OnnxStage, ReplayStage};
 use super::error::PipelineError;
 use super::frame_step::FrameStep;
 use super::heartbeat::{announce, heartbeat_and_telemetry_watch};
@@ -17,7 +17,7 @@ use super::slot::newest_slot;
 use super::stats::RunStats;
 use super::telemetry::TelemetryState;
 use crate::camera::CameraStatus;
-use crate::config::{DetectorSettings, MavlinkSettings, Settings};
+use crate::config::{DetectorSettings, MavlinkSettings, OnnxSettings, Settings};
 use crate::health::{Condition, ConditionReport, Level, Notice};
 use crate::mavlink::{self as mavlink_edge, Inbox, LinkInput, LinkSettings, OperatorRequest};
 use crate::mavlink::{Outputs, SigningSettings};
@@ -38,7 +38,7 @@ const CAPTURE_JOIN_TIMEOUT: Duration = Duration::from_secs(1);
 /// Runs until `shutdown` fires or the frame source ends; returns the counters.
 /// `effective_config` is the configuration as TOML, for the flight record (`[recording]`).
 pub async fn run(
-    settings: Settings,
+    mut settings: Settings,
     effective_config: &str,
     shutdown: Shutdown,
 ) -> Result<RunStats, PipelineError> {
@@ -47,12 +47,21 @@ pub async fn run(
     // recorder and the link; each of those failures stops what was already started (the
     // recorder is finished, the link's tasks and the capture thread are stopped) before the
     // error is returned.
+    // The ONNX detector's (backend, model) pair is chosen first (timed, under `auto`); the
+    // settings then name the chosen model, for the flight record.
+    let mut selection = None;
     let detector: Box<dyn DetectStage> = match &settings.detector {
         DetectorSettings::Replay {
             detections,
             first_image_id,
         } => Box::new(ReplayStage::load(detections, *first_image_id)?),
-        DetectorSettings::Onnx(onnx) => Box::new(OnnxStage::load(onnx.clone())?),
+        DetectorSettings::Onnx(onnx) => {
+            let (chosen, how) = onnx.select().map_err(DetectStageError::Model)?;
+            let stage = OnnxStage::load(chosen.clone())?;
+            settings.detector = DetectorSettings::Onnx(OnnxSettings::fixed(chosen));
+            selection = Some(how);
+            Box::new(stage)
+        }
     };
     let tracker = Tracker::new(settings.tracker.clone())
         .map_err(|e| PipelineError::Tracker(e.to_string()))?;
@@ -166,6 +175,7 @@ pub async fn run(
                 .and_then(Result::ok)
                 .ok_or(PipelineError::Panicked("frame-step"))
                 .map(|mut stats| {
+                    stats.detector = selection;
                     stats.frames_captured = captured.load(Ordering::Relaxed);
                     if let Ok(l) = latency.lock() {
                         stats.latency = l.total();

@@ -35,4 +35,9 @@ pub struct RunStats {
     pub latency: LatencyReport,
     /// The MAVLink link's counters (frames, refusals, reconnects, stream requests).
     pub link: LinkStats,
+    /// How the ONNX detector's (backend, model) pair was chosen: each candidate's measured
+    /// time under `backend = "auto"` or with `alternatives`, and the choice (absent for the
+    /// replay detector).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detector: Option<crate::detect::Selection>,
 }
