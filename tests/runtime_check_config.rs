@@ -232,7 +232,7 @@ fn check_config_refuses_a_missing_or_mismatched_alternative() {
     assert!(!stderr.contains("mgmot-det-fp32.onnx"), "{stderr}");
 }
 
-/// `mgmot run` with `backend = "auto"`, the int8 model and its fp32 alternative, on the two
+/// `mgmot run` with `backend = "auto"`, the int8 model and its fp32 alternative, on the
 /// detector fixture frames, with `ORT_DYLIB_PATH` set to `ort` (or unset): its stderr (INFO)
 /// and its `--stats-json`.
 fn auto_run(ort: Option<&Path>) -> (String, serde_json::Value) {
@@ -240,15 +240,12 @@ fn auto_run(ort: Option<&Path>) -> (String, serde_json::Value) {
     let dir = TestDir::new();
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
-    for name in [
-        "sim_boats_crossing_s100002_000631.jpg",
-        "sim_leave_and_return_s100002_000001.jpg",
-    ] {
-        std::fs::copy(
-            repo_file("tests/fixtures/detect").join(name),
-            frames.join(name),
-        )
-        .unwrap();
+    // The detector fixtures' frames (the directory also holds models and ground truth).
+    for entry in std::fs::read_dir(repo_file("tests/fixtures/detect")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "jpg") {
+            std::fs::copy(&path, frames.join(path.file_name().unwrap())).unwrap();
+        }
     }
     let gcs = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let mut c = common::run_config(
