@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Regenerates tests/fixtures/detect/ (run with train/.venv's python).
 
-- sim_heldout_a.jpg, sim_heldout_b.jpg + gt.json: held-out frames rendered by
+- sim_heldout_a.jpg, sim_heldout_b.jpg, sim_heldout_c.jpg + gt.json: held-out frames rendered by
   train/run.sh (train/data/sim/heldout, seeds 100001/100002, never trained
   on), copied byte for byte, with their boxes of all five SeaDronesSee
   classes (COCO, category 1 swimmer, 2 boat, 3 jetski, 4 life-saving
   appliance, 5 buoy). Chosen automatically: frame a shows the most classes at
   sizes the shipped model resolves on whole frames (longer side >= 10 px),
-  frame b the most such swimmers among the other sequences. gt.json names the
+  frame b the most such swimmers among the other sequences, frame c the
+  most boats and jetskis among the rest. gt.json names the
   sequence and frame each was copied from.
 - bad_rank.onnx: a valid model whose input has rank 3 (must be rejected).
 - bad_layout.onnx: a valid model with a (1, 7) output (unknown layout).
@@ -57,7 +58,17 @@ def choose():
             score_b = int(((sides >= MIN_SIDE) & (classes == 0)).sum())
             if best_b is None or score_b > best_b[0]:
                 best_b = (score_b, (seq.name, path, boxes, classes))
-    return [("sim_heldout_a.jpg", *best_a[1]), ("sim_heldout_b.jpg", *best_b[1])]
+    # Frame c: the most boats and jetskis, from a third sequence.
+    best_c = None
+    used = {best_a[1][0], best_b[1][0]}
+    for seq in sorted(p for p in HELDOUT.iterdir() if p.is_dir() and p.name not in used):
+        for path, boxes, classes in data.load_coco_dir(seq):
+            sides = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) if len(boxes) else np.zeros(0)
+            big = sides >= MIN_SIDE
+            score_c = (int((big & ((classes == 1) | (classes == 2))).sum()), len(set(classes[big].tolist())))
+            if best_c is None or score_c > best_c[0]:
+                best_c = (score_c, (seq.name, path, boxes, classes))
+    return [("sim_heldout_a.jpg", *best_a[1]), ("sim_heldout_b.jpg", *best_b[1]), ("sim_heldout_c.jpg", *best_c[1])]
 
 
 def frames():

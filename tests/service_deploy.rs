@@ -230,7 +230,7 @@ fn install_refuses_bad_arguments() {
 /// (`PR_SET_MDWE`, Linux 6.3+, what `MemoryDenyWriteExecute=yes` asks for: no mapping both
 /// writable and executable, no mapping made executable later); its detections.
 fn detect_under_mdwe(backend: &str, model: &str, ort: Option<&str>) -> String {
-    let image = repo_file("tests/fixtures/detect/sim_leave_and_return_s100002_000001.jpg");
+    let image = repo_file("tests/fixtures/detect/sim_heldout_a.jpg");
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_mgmot"));
     cmd.args(["detect", "--json", "--backend", backend, "--model"])
         .arg(repo_file(model))

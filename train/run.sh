@@ -7,7 +7,9 @@
 #                                      # real footage in the SeaDronesSee layout instead of renders
 #
 # Environment knobs (defaults in brackets):
-#   MGMOT_TRAIN_MINUTES  wall-clock training budget                 [40]
+#   MGMOT_TRAIN_MINUTES  wall-clock training budget, stage 1         [40]
+#   MGMOT_TRAIN_FT_MINUTES  class-balanced fine-tune, stage 2        [15]
+#   MGMOT_TRAIN_RESUME   1 = keep an existing stage-1 checkpoint       [0]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
 #   MGMOT_TRAIN_THREADS  torch threads                               [1]
@@ -27,6 +29,7 @@ set -euo pipefail
 HERE="$(cd "$(dirname "$0")" && pwd)"
 ROOT="$(cd "$HERE/.." && pwd)"
 MINUTES="${MGMOT_TRAIN_MINUTES:-40}"
+FT_MINUTES="${MGMOT_TRAIN_FT_MINUTES:-15}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
 PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
 RUN="$HERE/runs/sim"
@@ -91,8 +94,16 @@ if [[ "$INIT_REV" != none ]]; then
     git -C "$ROOT" show "$INIT_REV:models/mgmot-det-fp32.onnx" > "$RUN/init.onnx"
     INIT=(--init-onnx "$RUN/init.onnx")
 fi
-"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MINUTES" --seed 1 \
-    "${INIT[@]}" --out "$RUN/tinydet.pt"
+if [[ "${MGMOT_TRAIN_RESUME:-0}" == 1 && -f "$RUN/tinydet-stage1.pt" ]]; then
+    echo "stage 1: kept $RUN/tinydet-stage1.pt (MGMOT_TRAIN_RESUME=1)"
+else
+    "$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MINUTES" --seed 1 \
+        "${INIT[@]}" --out "$RUN/tinydet-stage1.pt"
+fi
+# 3b. Class-balanced fine-tune: frames and views drawn by class weight (commonest / class)^0.5,
+#     so jetskis, life-saving appliances and buoys are seen about as often as swimmers.
+"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$FT_MINUTES" --seed 2 \
+    --lr 1e-3 --balance 0.5 --init "$RUN/tinydet-stage1.pt" --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
@@ -112,7 +123,12 @@ json.dump({n: json.load(open(f'{run}/metrics-{n}.json')) for n in names}, open(f
 if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     cp "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" "$ROOT/models/"
     cp "$RUN/metrics.json" "$ROOT/models/metrics.json"
-    cp "$RUN/tinydet.log.json" "$ROOT/models/training-log.json"
+    "$PY" -c "
+import json, sys
+run = sys.argv[1]
+stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet'))}
+json.dump(stages, open(sys.argv[2], 'w'), indent=1)
+" "$RUN" "$ROOT/models/training-log.json"
     [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"
     echo "installed into $ROOT/models (update models/README.md with metrics.json)"
 fi

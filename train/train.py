@@ -36,7 +36,15 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(seed)
 
 
-def random_view(sample, size, rng):
+def class_weights(samples, nc: int, power: float) -> np.ndarray:
+    """Per-class sampling weight ``(boxes of the commonest class / boxes of the class) ** power`` (0: all 1)."""
+    counts = np.zeros(nc)
+    for _, _, c in samples:
+        counts += np.bincount(c, minlength=nc)[:nc]
+    return (counts.max() / np.maximum(counts, 1)) ** power
+
+
+def random_view(sample, size, rng, weights=None):
     """One size x size training view of a frame: (image, boxes, classes).
 
     The frame is scaled by a log-uniform factor in [0.2, 1]: 0.25 is what a
@@ -59,7 +67,11 @@ def random_view(sample, size, rng):
     img = np.asarray(im.convert("RGB").resize((nw, nh), Image.BILINEAR))
     b = boxes * np.array([nw / w0, nh / h0, nw / w0, nh / h0], np.float32)
     if len(b) and rng.random() < 0.7:
-        k = int(rng.integers(0, len(b)))
+        if weights is None:
+            k = int(rng.integers(0, len(b)))
+        else:
+            p = weights[classes]
+            k = int(rng.choice(len(b), p=p / p.sum()))
         cx, cy = (b[k, 0] + b[k, 2]) / 2, (b[k, 1] + b[k, 3]) / 2
         x0 = int(np.clip(cx - rng.uniform(0.1, 0.9) * size, 0, max(0, nw - size)))
         y0 = int(np.clip(cy - rng.uniform(0.1, 0.9) * size, 0, max(0, nh - size)))
@@ -165,16 +177,26 @@ class Batches(torch.utils.data.IterableDataset):
     Deterministic: one worker, its own generator seeded from ``seed``.
     """
 
-    def __init__(self, samples, crop: int, batch: int, seed: int):
+    def __init__(self, samples, crop: int, batch: int, seed: int, balance: float = 0.0):
         super().__init__()
         self.samples, self.crop, self.batch, self.seed = samples, crop, batch, seed
+        # Rarer classes more often: a frame is drawn in proportion to the weight of its
+        # rarest-class object, and the view is centred on an object drawn by class weight.
+        self.weights = class_weights(samples, len(data.class_names()), balance) if balance > 0 else None
+        if self.weights is not None:
+            fw = np.array([self.weights[c].max() if len(c) else 1.0 for _, _, c in samples])
+            self.frame_p = fw / fw.sum()
 
     def __iter__(self):
         rng = np.random.default_rng(self.seed)
         while True:
             imgs, targets = [], []
             for _ in range(self.batch):
-                img, boxes, classes = random_view(self.samples[int(rng.integers(0, len(self.samples)))], self.crop, rng)
+                if self.weights is None:
+                    i = int(rng.integers(0, len(self.samples)))
+                else:
+                    i = int(rng.choice(len(self.samples), p=self.frame_p))
+                img, boxes, classes = random_view(self.samples[i], self.crop, rng, self.weights)
                 img, boxes = augment(img, boxes, rng)
                 imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
                 targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
@@ -195,6 +217,8 @@ def main():
     ap.add_argument("--threads", type=int, default=1, help="torch threads (the batch loader is one more process)")
     ap.add_argument("--init", help="start from this checkpoint (continue training)")
     ap.add_argument("--init-onnx", help="start from the weights of this exported model (warm_start.py)")
+    ap.add_argument("--balance", type=float, default=0.0,
+                    help="oversample rare classes: class weight (commonest / class boxes) ** BALANCE (0: off)")
     args = ap.parse_args()
 
     seed_everything(args.seed)
@@ -216,7 +240,7 @@ def main():
     print(f"TinyDet: {nparams} parameters", flush=True)
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=5e-4)
     loader = torch.utils.data.DataLoader(
-        Batches(samples, args.crop, args.batch, args.seed), batch_size=None, num_workers=1, prefetch_factor=4
+        Batches(samples, args.crop, args.batch, args.seed, args.balance), batch_size=None, num_workers=1, prefetch_factor=4
     )
     batches = iter(loader)
     if args.init_onnx:
