@@ -149,8 +149,14 @@ const SQUARE: Committed = Committed {
     online_withheld: 0.922,
     offline: 0.959,
 };
+/// Re-committed on 2026-12-06 after the renderer's realism (issue 41): the colour signatures
+/// `mgmot-sim detections --appearance` computes from the new renders (shading, camera noise,
+/// object variants) keep fewer wrong links from the swimmers' 0.6 appearance gate here (online
+/// 0.906 -> 0.824, withheld 0.894 -> 0.812, offline 0.940 -> 0.874 with the same boxes; with
+/// the gate off, 0.759 before and after). The gate is to be re-measured on the new renders
+/// over several seeds (docs/benchmark.md, "Appearance gate").
 const SECTOR: Committed = Committed {
-    online: 0.906,
-    online_withheld: 0.894,
-    offline: 0.940,
+    online: 0.824,
+    online_withheld: 0.812,
+    offline: 0.874,
 };
