@@ -31,6 +31,7 @@ fn pymavlink_decodes_mgmot_messages() {
             vel_n_mps: 1.5,
             vel_e_mps: -2.0,
             h_std_m: 1.25,
+            ce95_m: 2.2,
         }),
         provisional: false,
     };

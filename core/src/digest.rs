@@ -176,7 +176,9 @@ impl Digest {
     }
 }
 
-fn class_name(id: u32) -> &'static str {
+/// The short name of a SeaDronesSee class id ("object" for an id outside 1..=5), as the
+/// digest and the Cursor-on-Target callsigns write it.
+pub fn class_name(id: u32) -> &'static str {
     CLASSES.get(id as usize).copied().unwrap_or(CLASSES[0])
 }
 
@@ -213,6 +215,7 @@ mod tests {
                 vel_n_mps: 0.0,
                 vel_e_mps: 0.0,
                 h_std_m: 1.0,
+                ce95_m: 1.73,
             }),
             provisional: false,
         }

@@ -331,6 +331,13 @@ impl InputBuilder {
     }
 }
 
+/// The 95 % circular error of a covariance; when it has none (not finite, not positive
+/// semi-definite) the conservative bound from its trace: 1.96 DRMS covers 95 % for any ratio
+/// of the axes.
+pub fn ce95_of(cov: &nalgebra::Matrix2<f64>) -> f64 {
+    crate::geo::circular_error_m(cov, 0.95).unwrap_or_else(|| 1.959_964 * cov.trace().abs().sqrt())
+}
+
 /// Where a track is on the map.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GeoFix {
@@ -343,6 +350,9 @@ pub struct GeoFix {
     /// Horizontal position standard deviation (m): the DRMS of the position covariance, as
     /// `geo::Geolocation::h_std_m`.
     pub h_std_m: f64,
+    /// Radius (m) of the circle that holds the position with 95 % probability, from the
+    /// position covariance ([`crate::geo::circular_error_m`]): Cursor-on-Target's `ce`.
+    pub ce95_m: f64,
 }
 
 /// A track's world state as a geodetic fix: `reference` is the local frame the tracker's
@@ -363,6 +373,7 @@ pub fn geo_fix(
         vel_n_mps: world.vel_ne_m_s.x,
         vel_e_mps: world.vel_ne_m_s.y,
         h_std_m: world.pos_cov_m2().trace().max(0.0).sqrt(),
+        ce95_m: ce95_of(&world.pos_cov_m2()),
     }
 }
 

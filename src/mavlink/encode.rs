@@ -454,6 +454,7 @@ mod tests {
                 vel_n_mps: 0.3,
                 vel_e_mps: -0.1,
                 h_std_m: 1.5,
+                ce95_m: 2.6,
             }),
             provisional: false,
         }

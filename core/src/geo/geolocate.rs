@@ -187,6 +187,72 @@ impl FrameGeometry<'_> {
         })
     }
 
+    /// The camera's footprint on the sea, as a closed ring of WGS84 points (the first not
+    /// repeated): the image border of a `width_px` x `height_px` frame sampled at `per_edge`
+    /// points per edge, clockwise from the top-left corner. A border point whose ray misses
+    /// the sea (above the horizon) or lands beyond the range limit is pulled towards the image
+    /// centre until it lands, so an oblique view gives the visible water up to the limit.
+    /// Points that land nowhere (the centre itself misses) are left out.
+    pub fn footprint(&self, (width_px, height_px): (u32, u32), per_edge: usize) -> Vec<Geodetic> {
+        let (w, h) = (f64::from(width_px), f64::from(height_px));
+        let n = per_edge.max(1);
+        let centre = Pixel::new(w / 2.0, h / 2.0);
+        let mut border = Vec::with_capacity(4 * n);
+        for i in 0..n {
+            let f = i as f64 / n as f64;
+            border.push(Pixel::new(f * w, 0.0));
+        }
+        for i in 0..n {
+            let f = i as f64 / n as f64;
+            border.push(Pixel::new(w, f * h));
+        }
+        for i in 0..n {
+            let f = i as f64 / n as f64;
+            border.push(Pixel::new(w - f * w, h));
+        }
+        for i in 0..n {
+            let f = i as f64 / n as f64;
+            border.push(Pixel::new(0.0, h - f * h));
+        }
+        let land = |px: Pixel| -> Option<Vector3<f64>> {
+            let g = self.geolocator;
+            let p = g
+                .camera
+                .project_to_sea(&self.pose_local, &SeaPlane::default(), px)
+                .ok()?;
+            ((p - self.pose_local.position_ned).norm() <= g.max_range_m).then_some(p)
+        };
+        border
+            .into_iter()
+            .filter_map(|b| {
+                if let Some(p) = land(b) {
+                    return Some(p);
+                }
+                // Bisection on the segment centre -> border: `lo` lands, `hi` does not.
+                let at = |t: f64| {
+                    Pixel::new(
+                        centre.u + t * (b.u - centre.u),
+                        centre.v + t * (b.v - centre.v),
+                    )
+                };
+                let mut best = land(centre)?;
+                let (mut lo, mut hi) = (0.0, 1.0);
+                for _ in 0..24 {
+                    let mid = 0.5 * (lo + hi);
+                    match land(at(mid)) {
+                        Some(p) => {
+                            lo = mid;
+                            best = p;
+                        }
+                        None => hi = mid,
+                    }
+                }
+                Some(best)
+            })
+            .map(|p| self.local.to_geodetic(&p))
+            .collect()
+    }
+
     /// The camera pose in the flight's reference frame.
     pub fn pose_in_reference(&self) -> CameraPose {
         CameraPose {
@@ -241,6 +307,35 @@ mod tests {
             "sea stays near down = 0: {}",
             loc.ned_m
         );
+    }
+
+    #[test]
+    fn a_nadir_footprint_is_the_ground_rectangle_and_an_oblique_one_stops_at_the_range_limit() {
+        let cam = CameraModel::from_hfov(1280, 720, 90.0).unwrap();
+        let origin = Geodetic::new(47.67, 9.27, 0.0).unwrap();
+        let g = Geolocator::new(origin, cam, PoseNoise::default()).with_max_range_m(500.0);
+        // 50 m up, straight down, heading north: 100 m wide (hfov 90), 56.25 m tall.
+        let meta = FrameMetadata::from_seadronessee(47.67, 9.27, 50.0, 0.0, 90.0).unwrap();
+        let ring = g.frame(&meta).unwrap().footprint((1280, 720), 2);
+        assert_eq!(ring.len(), 8);
+        let frame = LocalTangentFrame::new(Geodetic::new(47.67, 9.27, 0.0).unwrap());
+        let ned: Vec<Vector3<f64>> = ring.iter().map(|p| frame.to_ned(p)).collect();
+        let east = ned.iter().map(|p| p.y.abs()).fold(0.0, f64::max);
+        let north = ned.iter().map(|p| p.x.abs()).fold(0.0, f64::max);
+        assert!(
+            (east - 50.0).abs() < 0.5 && (north - 28.125).abs() < 0.5,
+            "{ned:?}"
+        );
+        // Pitched 10 deg below the horizon: the top of the image sees the sky; the footprint
+        // ends at the 500 m limit.
+        let meta = FrameMetadata::from_seadronessee(47.67, 9.27, 50.0, 0.0, 10.0).unwrap();
+        let ring = g.frame(&meta).unwrap().footprint((1280, 720), 4);
+        assert_eq!(ring.len(), 16);
+        let far = ring
+            .iter()
+            .map(|p| frame.to_ned(p).xy().norm())
+            .fold(0.0, f64::max);
+        assert!(far <= 500.0 && far > 480.0, "farthest point {far} m");
     }
 
     #[test]

@@ -16,6 +16,7 @@
 
 pub mod attitude;
 mod camera;
+mod circular_error;
 mod geolocate;
 mod smoothing;
 mod uncertainty;
@@ -24,6 +25,7 @@ mod wgs84;
 pub use camera::{
     sea_plane_homography, CameraModel, CameraPose, Distortion, Intrinsics, Pixel, SeaPlane,
 };
+pub use circular_error::circular_error_m;
 pub use geolocate::{FrameGeometry, FrameMetadata, Geolocation, Geolocator};
 pub use smoothing::{AttitudeSmoother, AttitudeSmoothing};
 pub use uncertainty::{geolocation_covariance, PoseNoise};

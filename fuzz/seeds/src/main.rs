@@ -285,6 +285,7 @@ fn mavlink(w: &mut Writer) -> anyhow::Result<()> {
             vel_n_mps: 0.3,
             vel_e_mps: 0.1,
             h_std_m: 2.5,
+            ce95_m: 4.3,
         }),
         provisional: false,
     };
