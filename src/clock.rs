@@ -18,6 +18,15 @@ pub fn now() -> CompanionTimeUs {
     CompanionTimeUs::from_timespec(ts.tv_sec as i64, ts.tv_nsec as i64 / 1000)
 }
 
+/// Now on the system's UTC clock, in µs since the Unix epoch (0 if the clock is set before
+/// it): the wall time that outputs for other systems (Cursor-on-Target) carry. A companion
+/// computer keeps it with NTP or the autopilot's GPS time.
+pub fn unix_now_us() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_micros()).unwrap_or(i64::MAX))
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -15,6 +15,7 @@
 //! - [`camera`]: frame sources (V4L2, image directories, the simulator's socket).
 //! - [`clock`]: the companion's monotonic clock, read at the edges only.
 //! - [`config`]: the runtime's TOML configuration, validated into typed settings.
+//! - [`cot`]: Cursor-on-Target events for TAK maps, and their UDP/TCP/TLS transports.
 //! - [`pipeline`]: the onboard runtime's wiring: capture, one frame's step, outputs.
 //! - [`firmware`]: autopilot parameter files checked against parameter metadata tables.
 //! - [`record`]: the flight record; [`review`]: a recorded flight as an HTML report, GeoJSON
@@ -24,6 +25,7 @@
 pub mod camera;
 pub mod clock;
 pub mod config;
+pub mod cot;
 pub mod detect;
 pub mod firmware;
 pub mod formats;

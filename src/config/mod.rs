@@ -11,6 +11,7 @@
 //!   stopping at the first.
 
 mod camera;
+mod cot;
 mod detector;
 mod frames;
 mod geolocation;
@@ -23,6 +24,7 @@ mod telemetry;
 mod tests;
 
 pub use camera::{CameraConfig, CameraSettings};
+pub use cot::{CotConfig, CotEndpoint, CotSettings, CotTlsConfig, CotTypes};
 pub use detector::{DetectorConfig, DetectorSettings, OnnxDetectorConfig, OnnxSettings};
 pub use frames::{FrameSettings, FramesConfig, ReconnectDelays};
 pub use geolocation::{GeolocationConfig, GeolocationSettings, DEFAULT_MAX_RANGE_M};

@@ -1,5 +1,6 @@
 //! `[outputs]`: what is sent to the autopilot and GCS, and how often.
 
+use super::cot::{CotConfig, CotSettings};
 use super::problems::{period, Problems};
 use crate::digest::DigestSettings;
 use crate::operator::DEFAULT_POINT_RADIUS;
@@ -28,6 +29,8 @@ pub struct OutputsConfig {
     pub radio_digest_every_s: f64,
     /// Positions listed in each periodic digest (the most recently seen tracks).
     pub radio_digest_positions: usize,
+    /// Cursor-on-Target events for TAK maps (`[outputs.cot]`, off by default).
+    pub cot: CotConfig,
 }
 
 impl Default for OutputsConfig {
@@ -40,12 +43,13 @@ impl Default for OutputsConfig {
             track_point_radius: DEFAULT_POINT_RADIUS,
             radio_digest_every_s: 15.0,
             radio_digest_positions: 3,
+            cot: CotConfig::default(),
         }
     }
 }
 
 /// The validated output settings: rates as the periods the senders wait.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct OutputSettings {
     /// Between two MGMOT_TRACK messages of one track (at least 10 ms).
     pub track_every: Duration,
@@ -59,6 +63,8 @@ pub struct OutputSettings {
     pub track_point_radius: f64,
     /// The STATUSTEXT digest of the tracks; `None`: off.
     pub radio_digest: Option<DigestSettings>,
+    /// Cursor-on-Target events; `None`: off.
+    pub cot: Option<CotSettings>,
 }
 
 impl OutputsConfig {
@@ -106,6 +112,7 @@ impl OutputsConfig {
             "must be at most 20 (each is one STATUSTEXT on the radio)",
             self.radio_digest_positions,
         );
+        let cot = self.cot.validate(p);
         Some(OutputSettings {
             track_every: track_every?,
             target_absolute: self.target_absolute,
@@ -113,6 +120,7 @@ impl OutputsConfig {
             camera_tracking_every: camera_tracking_every?,
             track_point_radius: track_point_radius?,
             radio_digest: positions.and(radio_digest)?,
+            cot: cot?,
         })
     }
 }

@@ -5,6 +5,7 @@
 //! records each stage's latency.
 
 use super::capture::Delivered;
+use super::cot_step::CotStep;
 use super::detect_stage::DetectStage;
 use super::heartbeat::announce;
 use super::latency::{Latency, LatencyReport, Stage, LOG_INTERVAL};
@@ -49,6 +50,8 @@ pub(super) struct FrameStep {
     /// Jumps of the frame source's clock are logged at most every [`LOG_EVERY`].
     clock_jump_log: LogThrottle,
     publisher: TrackPublisher,
+    /// Cursor-on-Target events, when `[outputs.cot]` is on.
+    cot: Option<CotStep>,
     operator: OperatorLink,
     outputs: Outputs,
     latency: Arc<Mutex<Latency>>,
@@ -100,6 +103,7 @@ impl FrameStep {
                 settings.outputs.radio_digest,
                 outputs.clone(),
             ),
+            cot: CotStep::start(settings),
             operator,
             outputs,
             latency,
@@ -129,6 +133,10 @@ impl FrameStep {
         }
         self.service.stopping();
         self.stats.frames_dropped = reader.dropped();
+        if let Some(cot) = &self.cot {
+            cot.finish();
+        }
+        self.stats.cot = self.cot.as_ref().map(CotStep::counters);
         if let Ok(t) = self.telemetry.lock() {
             self.stats.telemetry = t.counters();
         }
@@ -304,6 +312,17 @@ impl FrameStep {
             &fix,
             &timing,
         );
+        if let Some(cot) = &mut self.cot {
+            cot.frame(
+                output,
+                size,
+                tracker_time_us(time_s),
+                pose,
+                delivered,
+                geolocator,
+                &fix,
+            );
+        }
         self.operator
             .after_step(output, &self.tracker, size, |t: &TrackOutput| {
                 let f = fix(t);

@@ -7,6 +7,7 @@
 //! the core's `operator`); systemd's READY / WATCHDOG / STATUS notifications (`service`).
 
 mod capture;
+mod cot_step;
 mod detect_stage;
 mod error;
 mod frame_step;

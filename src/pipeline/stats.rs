@@ -40,4 +40,7 @@ pub struct RunStats {
     /// replay detector).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub detector: Option<crate::detect::Selection>,
+    /// The Cursor-on-Target output's counters (absent when `[outputs.cot]` is off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cot: Option<super::cot_step::CotCounters>,
 }
