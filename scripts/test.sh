@@ -13,7 +13,7 @@ fi
 # Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv. The tests that
 # need an outside tool (these, ONNX Runtime below) fail, naming it, when it is missing: none of
 # them passes as a skip.
-if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink, PIL, onnx" 2>/dev/null; then
+if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink, PIL, onnx, lxml" 2>/dev/null; then
   echo "== python venv for the cross-checks (.venv)"
   if ! python3 -m venv .venv 2>/dev/null; then
     SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"

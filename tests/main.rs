@@ -21,6 +21,7 @@ mod real_data_geolocation;
 mod recording;
 mod review;
 mod runtime_check_config;
+mod runtime_cot;
 mod runtime_faults;
 mod runtime_heartbeat;
 mod runtime_images;
