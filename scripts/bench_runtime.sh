@@ -7,7 +7,7 @@
 #
 #   scripts/bench_runtime.sh [--minutes N] [--scenario NAME] [--detector onnx|replay]
 #                            [--backend onnxruntime|tract] [--model FILE] [--threads N]
-#                            [--out DIR]
+#                            [--cot URL] [--out DIR]
 #
 # Defaults: 1 minute, leave_and_return (hover with a slow gimbal pan: swimmers in view, out of it
 # and back all the time, so tracks, re-identification and messages flow through a whole soak;
@@ -15,7 +15,9 @@
 # model on onnxruntime (fetched from the PyPI
 # wheel by scripts/detect_fetch_onnxruntime.sh; --backend tract needs nothing and uses the fp32
 # model). --detector replay replays the simulator's detections instead of running the model:
-# the rest of the pipeline without the cost of inference. Results go to out/bench_runtime/.
+# the rest of the pipeline without the cost of inference. --cot URL turns `[outputs.cot]` on
+# (e.g. udp://239.2.3.1:6969 on loopback, or a TAK server's tcp://), to compare the frame path
+# with and without it. Results go to out/bench_runtime/.
 #
 # Timing reference: the frame's capture timestamp (the simulator stamps the exposure on the
 # autopilot clock; mgmot maps it onto its own clock with TIMESYNC). The scenario's
@@ -33,6 +35,7 @@ detector=onnx
 backend=onnxruntime
 model=""
 threads=2
+cot=""
 out=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
@@ -42,8 +45,9 @@ while [[ $# -gt 0 ]]; do
         --backend) backend="$2"; shift 2 ;;
         --model) model="$2"; shift 2 ;;
         --threads) threads="$2"; shift 2 ;;
+        --cot) cot="$2"; shift 2 ;;
         --out) out="$2"; shift 2 ;;
-        -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
         *) echo "bench_runtime: unknown option $1 (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -96,6 +100,14 @@ socket = "$out/frames.sock"
 [detector]
 $det_cfg
 EOF
+if [[ -n "$cot" ]]; then
+    cat >>"$out/run.toml" <<EOF
+[outputs.cot]
+enabled = true
+url = "$cot"
+multicast_interface = "127.0.0.1"
+EOF
+fi
 
 pids=()
 cleanup() {
