@@ -89,7 +89,7 @@ for _ in $(seq 1 40); do [ -f "$out/client.ready" ] && break; sleep 0.25; done
 sleep 1
 
 echo "== mgmot-sim ($scenario, ${duration} s real time) -> mgmot run ([outputs.cot] tcp://127.0.0.1:8087 at ${rate} Hz)"
-"$bin/mgmot-sim" detections --scenario "$scenario" --duration-s "$duration" -o "$out/dets.json" >/dev/null
+"$bin/mgmot-sim" detections --scenario "$scenario" --duration-s "$duration" -o "$out/dets.json" > "$out/detections.log" 2>&1
 port=$(python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 cat > "$out/mgmot.toml" <<TOML
 [mavlink]

@@ -14,6 +14,10 @@ command -v pkg-config >/dev/null 2>&1 || need_apt+=(pkg-config)
 # scripts/check_unit.sh (systemd-analyze) and the installer test (objcopy, strip).
 command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
 command -v objcopy >/dev/null 2>&1 || need_apt+=(binutils)
+# openssl: tests/runtime_cot.rs makes the certificates of its TLS server with it; unshare
+# (util-linux): scripts/bench_tak.sh runs FreeTAKServer in its own namespaces
+command -v openssl >/dev/null 2>&1 || need_apt+=(openssl)
+command -v unshare >/dev/null 2>&1 || need_apt+=(util-linux)
 # The permission tests run mgmot without CAP_DAC_OVERRIDE through capsh (tests/common).
 command -v capsh >/dev/null 2>&1 || [ -x /usr/sbin/capsh ] || [ -x /sbin/capsh ] || need_apt+=(libcap2-bin)
 # bindgen (used by the v4l crate) needs libclang.

@@ -78,3 +78,10 @@ seq="$(mktemp -d)/seq"
 "$MGMOT_SIM_BIN" render -s calm_baseline -o "$seq" --format jpg --every 150 --duration-s 40 2>/dev/null
 .venv/bin/python3 train/test_data.py "$seq"
 rm -rf "$(dirname "$seq")"
+# The TAK bench: mgmot streams Cursor-on-Target to a real TAK server (FreeTAKServer 2.2.1 from
+# PyPI, in its own namespaces) and a pytak client behind it must receive every event, each valid
+# against the CoT event schema, p95 creation -> client <= 1 s (docs/tak.md).
+echo "== TAK bench: mgmot -> FreeTAKServer -> pytak client, 30 s (scripts/bench_tak.sh)"
+tak_out="$(mktemp -d)"
+bash scripts/bench_tak.sh --duration-s 30 --bin-dir target/release --out "$tak_out/bench_tak"
+rm -rf "$tak_out"
