@@ -7,15 +7,17 @@
 //! `P(r) = 1/(2 pi) * integral over phi of (1 - exp(-r^2 / (2 k(phi))))`,
 //! `k(phi) = l1 cos^2(phi) + l2 sin^2(phi)`: a smooth, periodic integrand for every ratio of the
 //! axes (even `l2 = 0`), so the trapezoid rule over a quarter turn converges fast. The radius
-//! for a probability is found by bisection. The two limits are exact: a circular error
+//! for a probability is found by Newton's method inside a bracket (a few microseconds: it
+//! runs for every reported track). The two limits are exact: a circular error
 //! (`l1 = l2 = s^2`) gives `s * sqrt(-2 ln(1 - p))` (2.4477 s at 95 %), a degenerate one
 //! (`l2 = 0`) the normal quantile (1.95996 `sqrt(l1)` at 95 %).
 
 use nalgebra::Matrix2;
 
 /// Angle samples of the trapezoid rule over a quarter turn (the integrand is symmetric in
-/// both axes).
-const ANGLE_SAMPLES: usize = 64;
+/// both axes; 32 keep the probability within 1e-4 of the sampled truth at every axis ratio,
+/// see the property test).
+const ANGLE_SAMPLES: usize = 32;
 
 /// The radius (m) of the circle around the estimate that holds the true position with
 /// probability `p` (0 < p < 1), for a horizontal position covariance `cov` (m^2). A covariance
@@ -37,47 +39,60 @@ pub fn circular_error_m(cov: &Matrix2<f64>, p: f64) -> Option<f64> {
     if l1 == 0.0 {
         return Some(0.0);
     }
-    // The circular radius of the whole variance is always enough (it bounds both limits).
-    let mut lo = 0.0;
-    let mut hi = ((l1 + l2) * -2.0 * (1.0 - p).ln())
-        .sqrt()
-        .max(3.0 * l1.sqrt());
-    while probability_within(l1, l2, hi) < p {
-        hi *= 2.0;
-    }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if probability_within(l1, l2, mid) < p {
-            lo = mid;
+    // Newton's method from the circular radius of the mean variance (exact when circular),
+    // kept inside a bracket that always holds the answer: the circular radius of the whole
+    // variance bounds both limits from above.
+    let k = (-2.0 * (1.0 - p).ln()).sqrt();
+    let (mut lo, mut hi) = (0.0, k * (l1 + l2).sqrt());
+    let mut r = k * (0.5 * (l1 + l2)).sqrt();
+    for _ in 0..50 {
+        let (prob, slope) = probability_within(l1, l2, r);
+        if prob < p {
+            lo = r;
         } else {
-            hi = mid;
+            hi = r;
         }
+        let step = if slope > 0.0 {
+            (prob - p) / slope
+        } else {
+            f64::INFINITY
+        };
+        let mut next = r - step;
+        if !(next > lo && next < hi) {
+            next = 0.5 * (lo + hi);
+        }
+        if (next - r).abs() <= 1e-7 * r {
+            return Some(next);
+        }
+        r = next;
     }
-    Some(0.5 * (lo + hi))
+    Some(r)
 }
 
 /// The probability that a zero-mean normal with axis variances `l1 >= l2 >= 0` lies within
-/// radius `r`.
-fn probability_within(l1: f64, l2: f64, r: f64) -> f64 {
+/// radius `r`, and its derivative in `r`.
+fn probability_within(l1: f64, l2: f64, r: f64) -> (f64, f64) {
     let step = std::f64::consts::FRAC_PI_2 / ANGLE_SAMPLES as f64;
-    let mut sum = 0.0;
+    let (mut sum, mut slope) = (0.0, 0.0);
     for k in 0..=ANGLE_SAMPLES {
         let (s, c) = (k as f64 * step).sin_cos();
         let var = l1 * c * c + l2 * s * s;
-        let f = if var > 0.0 {
-            -(-0.5 * r * r / var).exp_m1()
-        } else {
-            1.0
-        };
         let w = if k == 0 || k == ANGLE_SAMPLES {
             0.5
         } else {
             1.0
         };
-        sum += w * f;
+        if var > 0.0 {
+            let e = (-0.5 * r * r / var).exp();
+            sum += w * (1.0 - e);
+            slope += w * r / var * e;
+        } else {
+            sum += w;
+        }
     }
     // The quarter turn's integral (step * sum) is a quarter of the whole, over 2 pi.
-    (sum * step * 4.0 / std::f64::consts::TAU).clamp(0.0, 1.0)
+    let scale = step * 4.0 / std::f64::consts::TAU;
+    ((sum * scale).clamp(0.0, 1.0), slope * scale)
 }
 
 #[cfg(test)]
