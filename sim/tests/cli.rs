@@ -34,6 +34,7 @@ fn lists_the_shipped_scenarios() {
         "lawnmower_search",
         "expanding_square",
         "sector_search",
+        "two_drones",
     ] {
         assert!(out.contains(name), "{name} missing from:\n{out}");
     }
@@ -67,6 +68,46 @@ fn unknown_scenario_is_a_clear_error() {
         out.to_str().unwrap(),
     ]);
     assert_clean_failure(&o, "unknown scenario `no_such_scenario`");
+}
+
+/// `--vehicle K` flies one drone of a scenario with several (each sees the world from its
+/// own path: other detections); a vehicle the scenario does not have is a clear error. (That
+/// the world is the same for both: the `two_drones` unit test in sim/src/scenario/shipped.rs.)
+#[test]
+fn each_vehicle_of_two_drones_flies_its_own_path() {
+    let dir = TestDir::new();
+    let mut detections = Vec::new();
+    for k in ["0", "1"] {
+        let out = dir.join(format!("v{k}.json"));
+        let o = run_sim(&[
+            "detections",
+            "-s",
+            "two_drones",
+            "--vehicle",
+            k,
+            "--duration-s",
+            "20",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr_text(&o));
+        detections.push(std::fs::read_to_string(&out).expect("the detections"));
+    }
+    assert!(
+        detections.iter().all(|d| d.len() > 100),
+        "detections were written"
+    );
+    assert_ne!(detections[0], detections[1], "two paths, two views");
+    let o = run_sim(&[
+        "detections",
+        "-s",
+        "two_drones",
+        "--vehicle",
+        "2",
+        "-o",
+        dir.join("v2.json").to_str().unwrap(),
+    ]);
+    assert_clean_failure(&o, "has 2 vehicle(s) (0 to 1), not vehicle 2");
 }
 
 #[test]

@@ -222,6 +222,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         width: args.width,
         height: args.height,
         fps: args.fps,
+        // The real autopilot flies; the scenario's own drone is not used.
+        vehicle: 0,
     }
     .world()?;
     let renderer = Renderer::new(&world.scenario, world.seed);

@@ -77,12 +77,17 @@ pub struct ScenarioArgs {
     /// Override the frame rate.
     #[arg(long)]
     pub fps: Option<f64>,
+    /// Which drone of a scenario with several (`[[vehicles]]`) to fly: 0 (the default) is the
+    /// top-level `drone`, K the K-th entry of `vehicles`. The world and its truth are the same
+    /// for all.
+    #[arg(long, default_value_t = 0)]
+    pub vehicle: usize,
 }
 
 impl ScenarioArgs {
     /// Loads the scenario, applies the overrides, validates and builds the world.
     pub fn world(&self) -> anyhow::Result<World> {
-        let mut s = Scenario::load(&self.scenario)?;
+        let mut s = Scenario::load(&self.scenario)?.for_vehicle(self.vehicle)?;
         if let Some(d) = self.duration_s {
             s.duration_s = d;
         }

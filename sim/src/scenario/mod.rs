@@ -53,6 +53,16 @@ pub enum ScenarioError {
         /// Every problem found, never empty.
         problems: Vec<FieldProblem>,
     },
+    /// `--vehicle K` names a vehicle the scenario does not have.
+    #[error("scenario `{scenario}` has {count} vehicle(s) (0 to {}), not vehicle {vehicle}", .count - 1)]
+    NoVehicle {
+        /// The scenario.
+        scenario: String,
+        /// The vehicle asked for.
+        vehicle: usize,
+        /// How many it has (the top-level drone and `vehicles`).
+        count: usize,
+    },
 }
 
 /// One invalid field of a scenario.
@@ -110,6 +120,28 @@ pub struct Scenario {
     /// Switches and levels of the frame renderer's realism features.
     #[serde(default)]
     pub render: Render,
+    /// More drones over the same water: the same seed, sea and objects (so the same truth),
+    /// each with its own path, gimbal program, camera and MAVLink system id.
+    /// `--vehicle K` flies the K-th of them (1-based; 0, the default, is the top-level
+    /// `drone`); [`Scenario::for_vehicle`].
+    #[serde(default)]
+    pub vehicles: Vec<Vehicle>,
+}
+
+/// One more drone of a scenario with several ([`Scenario::vehicles`]).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vehicle {
+    /// Its MAVLink system id; every vehicle of the scenario has its own.
+    pub system_id: u8,
+    /// Its path, speed and altitude.
+    pub drone: Drone,
+    /// Its gimbal program; default: the scenario's.
+    #[serde(default)]
+    pub gimbal: Option<Gimbal>,
+    /// Its camera; default: the scenario's.
+    #[serde(default)]
+    pub camera: Option<Camera>,
 }
 
 fn default_seed() -> u64 {
@@ -756,6 +788,35 @@ impl Scenario {
         })?;
         scenario.validate(origin)?;
         Ok(scenario)
+    }
+
+    /// The scenario as vehicle `k` flies it: 0 is the top-level drone (the scenario itself);
+    /// `k >= 1` takes `vehicles[k - 1]`'s path, gimbal, camera and system id. The world (seed,
+    /// sea, objects, events) is the same for all, and so is the truth. The result has no
+    /// vehicles of its own.
+    pub fn for_vehicle(&self, k: usize) -> Result<Scenario, ScenarioError> {
+        let mut s = self.clone();
+        s.vehicles.clear();
+        if k == 0 {
+            return Ok(s);
+        }
+        let v = self
+            .vehicles
+            .get(k - 1)
+            .ok_or_else(|| ScenarioError::NoVehicle {
+                scenario: self.name.clone(),
+                vehicle: k,
+                count: self.vehicles.len() + 1,
+            })?;
+        s.drone = v.drone.clone();
+        if let Some(g) = &v.gimbal {
+            s.gimbal = g.clone();
+        }
+        if let Some(c) = &v.camera {
+            s.camera = c.clone();
+        }
+        s.telemetry.system_id = v.system_id;
+        Ok(s)
     }
 
     /// Number of frames in the scenario.

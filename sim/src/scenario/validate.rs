@@ -38,6 +38,7 @@ impl Scenario {
         check_telemetry(&self.telemetry, &mut p);
         check_detector(&self.detector, &mut p);
         check_render(&self.render, &mut p);
+        self.check_vehicles(&mut p);
         if p.0.is_empty() {
             Ok(())
         } else {
@@ -45,6 +46,33 @@ impl Scenario {
                 origin: origin.to_string(),
                 problems: p.0,
             })
+        }
+    }
+
+    /// `vehicles[i]`: each one's drone, path, gimbal and camera as the top level's, and a
+    /// system id of its own.
+    fn check_vehicles(&self, p: &mut Problems) {
+        let mut ids = vec![self.telemetry.system_id];
+        for (i, v) in self.vehicles.iter().enumerate() {
+            let mut own = Problems::default();
+            check_drone(&v.drone, &mut own);
+            check_path(&v.drone.path, &mut own);
+            if let Some(g) = &v.gimbal {
+                check_gimbal(g, &mut own);
+            }
+            if let Some(c) = &v.camera {
+                check_camera(c, &mut own);
+            }
+            own.require(
+                v.system_id > 0 && !ids.contains(&v.system_id),
+                "system_id",
+                "must be 1..=255 and differ from telemetry.system_id and every other vehicle's",
+            );
+            ids.push(v.system_id);
+            p.0.extend(own.0.into_iter().map(|f| FieldProblem {
+                field: format!("vehicles[{i}].{}", f.field),
+                problem: f.problem,
+            }));
         }
     }
 
