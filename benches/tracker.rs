@@ -14,6 +14,9 @@
 //! Fourth case: the colour signature of one detection's box (`signature_*`), which
 //! `mgmot run` computes for every detection (cost per frame: detections x this).
 //!
+//! Fifth: the 95 % circle of a track's position covariance (`circular_error_95_*`), computed
+//! for every reported track of every frame.
+//!
 //! Detections and track ends carry colour signatures, so the appearance gate's distances are
 //! in every figure.
 //!
@@ -381,7 +384,30 @@ fn bench_signature(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_step, bench_long_gap, bench_signature);
+/// The 95 % circle of a track's position covariance (`geo::circular_error_m`), which
+/// `mgmot run` computes for every reported track of every frame (Cursor-on-Target's `ce`):
+/// a circular covariance and an elongated, rotated one (axes 3 m and 0.9 m).
+fn bench_circular_error(c: &mut Criterion) {
+    use mgmot::geo::circular_error_m;
+    let (s, co) = 0.6f64.sin_cos();
+    let rot = Matrix2::new(co, -s, s, co);
+    let elongated = rot * Matrix2::new(9.0, 0.0, 0.0, 0.81) * rot.transpose();
+    for (name, cov) in [
+        ("circular_error_95_circular", Matrix2::new(4.0, 0.0, 0.0, 4.0)),
+        ("circular_error_95_elongated", elongated),
+    ] {
+        assert!(circular_error_m(&cov, 0.95).is_some());
+        c.bench_function(name, |b| b.iter(|| circular_error_m(&cov, 0.95)));
+    }
+}
+
+criterion_group!(
+    benches,
+    bench_step,
+    bench_long_gap,
+    bench_signature,
+    bench_circular_error
+);
 criterion_group! {
     name = benches_cpu;
     config = Criterion::default().with_measurement(ThreadCpuTime);
