@@ -119,6 +119,11 @@ fn assert_at_true_objects(events: &[Event], truth: &[Truth], limit_m: f64) -> us
     checked
 }
 
+/// `calm_baseline` for `seconds` at 640x360 (the replay detector does not look at pixels).
+fn calm(seconds: f64) -> Scenario {
+    Scenario::new("calm_baseline", seconds).size(640, 360)
+}
+
 /// A scenario run in lockstep with the replay detector and `cot` as the CoT output; returns
 /// mgmot's stats and the truth.
 fn run_with_cot(
@@ -209,11 +214,7 @@ fn tcp_events_pass_the_schema_lie_at_true_objects_and_survive_a_dropped_connecti
         rate_hz: 2.0,
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(
-        &dir,
-        cot,
-        &Scenario::new("calm_baseline", 12.0).size(640, 360),
-    );
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(12.0));
     // mgmot closed the second connection on exit: the server thread ends.
     let _ = server.join();
     let connections = connections.lock().expect("lock").clone();
@@ -323,11 +324,7 @@ fn multicast_events_reach_a_member_of_the_group_on_loopback() {
         multicast_interface: "127.0.0.1".into(),
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(
-        &dir,
-        cot,
-        &Scenario::new("calm_baseline", 8.0).size(640, 360),
-    );
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0));
     std::thread::sleep(Duration::from_millis(300));
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let _ = thread.join();
@@ -371,11 +368,7 @@ fn an_unreachable_server_never_holds_up_tracking() {
         url: format!("tcp://127.0.0.1:{port}"),
         ..CotConfig::default()
     };
-    let (stats, _) = run_with_cot(
-        &dir,
-        cot,
-        &Scenario::new("calm_baseline", 6.0).size(640, 360),
-    );
+    let (stats, _) = run_with_cot(&dir, cot, &calm(6.0));
     let log = std::fs::read_to_string(dir.join("mgmot.log")).unwrap_or_default();
     assert!(log.contains("CoT: cannot reach the server"), "{log}");
     assert!(stats["track_messages"].as_u64() > Some(0), "{stats}");
@@ -557,11 +550,7 @@ fn tls_with_a_client_certificate_and_a_server_of_another_ca() {
         tls: Some(tls.clone()),
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(
-        &dir,
-        cot,
-        &Scenario::new("calm_baseline", 8.0).size(640, 360),
-    );
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0));
     std::thread::sleep(Duration::from_millis(300));
     let streams = received.lock().expect("lock").clone();
     let events: Vec<String> = streams.iter().flat_map(|s| split(s)).collect();
@@ -597,11 +586,7 @@ fn tls_with_a_client_certificate_and_a_server_of_another_ca() {
         .iter()
         .map(|s| split(s).len())
         .sum::<usize>();
-    let (stats, _) = run_with_cot(
-        &other,
-        cot,
-        &Scenario::new("calm_baseline", 4.0).size(640, 360),
-    );
+    let (stats, _) = run_with_cot(&other, cot, &calm(4.0));
     let log = std::fs::read_to_string(other.join("mgmot.log")).unwrap_or_default();
     assert!(log.contains("TLS handshake"), "{log}");
     assert_eq!(stats["cot"]["sent"].as_u64(), Some(0), "{stats}");
