@@ -393,7 +393,10 @@ fn bench_circular_error(c: &mut Criterion) {
     let rot = Matrix2::new(co, -s, s, co);
     let elongated = rot * Matrix2::new(9.0, 0.0, 0.0, 0.81) * rot.transpose();
     for (name, cov) in [
-        ("circular_error_95_circular", Matrix2::new(4.0, 0.0, 0.0, 4.0)),
+        (
+            "circular_error_95_circular",
+            Matrix2::new(4.0, 0.0, 0.0, 4.0),
+        ),
         ("circular_error_95_elongated", elongated),
     ] {
         assert!(circular_error_m(&cov, 0.95).is_some());
