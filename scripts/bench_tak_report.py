@@ -33,7 +33,9 @@ def main():
     rows = [json.loads(line) for line in Path(a.received).read_text().splitlines() if line.strip()]
     stats = json.loads(Path(a.stats).read_text())
     cot = stats.get("cot") or {}
-    ours = [r for r in rows if re.search(r'uid="mgmot\.', r["xml"])]
+    # Ours: the event's own uid is mgmot's (the server also sends events that only link to
+    # ours, e.g. the t-x-d-d it makes when mgmot disconnects).
+    ours = [r for r in rows if re.search(r'<event\b[^>]*\buid="mgmot\.', r["xml"])]
     latencies = []
     for r in ours:
         m = re.search(r' time="([^"]+)"', r["xml"])

@@ -38,6 +38,8 @@ pub struct CotStats {
     pub connects: AtomicU64,
     /// Failed connection attempts and writes.
     pub errors: AtomicU64,
+    /// The task has ended (after [`CotOutput::close`]: the connection closed cleanly).
+    pub closed: std::sync::atomic::AtomicBool,
 }
 
 /// Makes the event a stream connection starts with: a TAK server takes the first event of a
@@ -100,6 +102,28 @@ impl CotOutput {
         }
     }
 
+    /// Ends the output at the end of a run (blocking, on a thread that is not the runtime's):
+    /// waits up to `limit` for the queued events to be sent ([`CotOutput::flush`]), then has
+    /// the task close the connection cleanly, so the server reads every event before the end
+    /// of the stream (an abrupt close with unread data makes the kernel reset the connection,
+    /// and the server can lose what it had not read yet). Returns how many events were not
+    /// sent.
+    pub fn close(self, limit: Duration) -> u64 {
+        let unsent = self.flush(limit);
+        let stats = self.stats.clone();
+        drop(self.tx);
+        let deadline = std::time::Instant::now() + limit;
+        while !stats.closed.load(Ordering::Relaxed) && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        unsent
+    }
+
+    /// The counters, shared (they outlive [`CotOutput::close`]).
+    pub fn shared_stats(&self) -> Arc<CotStats> {
+        self.stats.clone()
+    }
+
     /// The counters.
     pub fn stats(&self) -> &CotStats {
         &self.stats
@@ -148,6 +172,11 @@ struct Task {
 
 impl Task {
     async fn run(mut self, mut rx: mpsc::Receiver<CotMessage>) {
+        self.run_endpoint(&mut rx).await;
+        self.stats.closed.store(true, Ordering::Relaxed);
+    }
+
+    async fn run_endpoint(&mut self, rx: &mut mpsc::Receiver<CotMessage>) {
         match self.endpoint.clone() {
             CotEndpoint::Udp {
                 host,
@@ -155,10 +184,10 @@ impl Task {
                 multicast_interface,
                 multicast_ttl,
             } => {
-                self.run_udp(&mut rx, &host, port, multicast_interface, multicast_ttl)
+                self.run_udp(rx, &host, port, multicast_interface, multicast_ttl)
                     .await
             }
-            _ => self.run_stream(&mut rx).await,
+            _ => self.run_stream(rx).await,
         }
     }
 
@@ -316,7 +345,10 @@ impl Task {
         loop {
             tokio::select! {
                 m = rx.recv() => {
-                    let m = m?;
+                    let Some(m) = m else {
+                        close_cleanly(&mut reader, &mut writer).await;
+                        return None;
+                    };
                     if let Err(e) = write(&mut writer, &m).await {
                         if self.pending.put(m) {
                             self.stats.replaced.fetch_add(1, Ordering::Relaxed);
@@ -333,6 +365,25 @@ impl Task {
             }
         }
     }
+}
+
+/// Ends a stream: our side's end of data after everything written (FIN), then what the server
+/// still sends is read until it closes too (or 2 s pass), so nothing is left unread and the
+/// close is not a reset.
+async fn close_cleanly(
+    reader: &mut (impl AsyncRead + Unpin),
+    writer: &mut (impl AsyncWrite + Unpin),
+) {
+    let _ = tokio::time::timeout(IO_TIMEOUT, writer.shutdown()).await;
+    let mut sink = vec![0u8; 16 * 1024];
+    let _ = tokio::time::timeout(Duration::from_secs(2), async {
+        while let Ok(n) = reader.read(&mut sink).await {
+            if n == 0 {
+                break;
+            }
+        }
+    })
+    .await;
 }
 
 async fn write(w: &mut (impl AsyncWrite + Unpin), m: &CotMessage) -> Result<(), String> {

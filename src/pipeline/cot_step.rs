@@ -4,7 +4,7 @@
 
 use super::telemetry::FramePose;
 use crate::config::{CotSettings, Settings};
-use crate::cot::{CotClock, CotOutput, CotPublisher, PublisherSettings, VehicleFix};
+use crate::cot::{CotClock, CotOutput, CotPublisher, CotStats, PublisherSettings, VehicleFix};
 use crate::frame::GeoFix;
 use crate::geo::Geolocator;
 use crate::report::TrackReport;
@@ -147,27 +147,34 @@ impl CotStep {
         }
     }
 
-    /// At the end of a run: waits up to 2 s for the queued events to be sent, and says how
-    /// many were not.
-    pub fn finish(&self) {
-        let unsent = self.output.flush(std::time::Duration::from_secs(2));
+    /// At the end of a run: waits up to 2 s for the queued events to be sent, closes the
+    /// connection cleanly, says how many events were not sent, and returns the counters.
+    pub fn finish(self) -> CotCounters {
+        let Self {
+            output,
+            events,
+            endpoint,
+            ..
+        } = self;
+        let stats = output.shared_stats();
+        let unsent = output.close(std::time::Duration::from_secs(2));
         if unsent > 0 {
-            tracing::warn!(unsent, endpoint = %self.endpoint, "CoT: events not sent at exit");
+            tracing::warn!(unsent, endpoint = %endpoint, "CoT: events not sent at exit");
         }
+        counters_of(endpoint, events, &stats)
     }
+}
 
-    /// The counters so far.
-    pub fn counters(&self) -> CotCounters {
-        let s = self.output.stats();
-        CotCounters {
-            endpoint: self.endpoint.clone(),
-            events: self.events,
-            sent: s.sent.load(Ordering::Relaxed),
-            replaced: s.replaced.load(Ordering::Relaxed),
-            dropped: s.dropped.load(Ordering::Relaxed),
-            failed: s.failed.load(Ordering::Relaxed),
-            connects: s.connects.load(Ordering::Relaxed),
-            errors: s.errors.load(Ordering::Relaxed),
-        }
+/// The counters of an output that made `events` events.
+fn counters_of(endpoint: String, events: u64, s: &CotStats) -> CotCounters {
+    CotCounters {
+        endpoint,
+        events,
+        sent: s.sent.load(Ordering::Relaxed),
+        replaced: s.replaced.load(Ordering::Relaxed),
+        dropped: s.dropped.load(Ordering::Relaxed),
+        failed: s.failed.load(Ordering::Relaxed),
+        connects: s.connects.load(Ordering::Relaxed),
+        errors: s.errors.load(Ordering::Relaxed),
     }
 }

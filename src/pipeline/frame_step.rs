@@ -133,10 +133,7 @@ impl FrameStep {
         }
         self.service.stopping();
         self.stats.frames_dropped = reader.dropped();
-        if let Some(cot) = &self.cot {
-            cot.finish();
-        }
-        self.stats.cot = self.cot.as_ref().map(CotStep::counters);
+        self.stats.cot = self.cot.take().map(CotStep::finish);
         if let Ok(t) = self.telemetry.lock() {
             self.stats.telemetry = t.counters();
         }
