@@ -24,6 +24,7 @@
 pub mod digest;
 pub mod eval;
 pub mod frame;
+pub mod fuse;
 pub mod geo;
 pub mod health;
 pub mod operator;

@@ -20,7 +20,7 @@
 //!   Eq. 9), [`reid::short_term_cost`] (Eq. 6); [`nms_prefer_larger`] (Sec. 5.1).
 
 pub mod appearance;
-mod assign;
+pub(crate) mod assign;
 mod bbox;
 mod contact;
 pub mod drift;

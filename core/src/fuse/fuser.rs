@@ -1,0 +1,1032 @@
+//! The fuser: drones' track reports in, one fused track per object out.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use nalgebra::{Matrix2, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::geo::{circular_error_m, Geodetic, LocalTangentFrame};
+use crate::track::assign::solve_gated;
+use crate::track::{DriftParams, SeaDrift};
+
+/// The later of two optional times.
+fn later(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// A drone's track: (system id, track id).
+pub type MemberKey = (u8, u64);
+
+/// The smallest per-axis standard deviation a report is given (m): a report claiming better
+/// is not trusted to be that good.
+const MIN_STD_M: f64 = 0.5;
+
+/// Fusion parameters (`[fusion]` of `mgmot ground`'s configuration).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FuseParams {
+    /// Gate on the squared Mahalanobis distance between a drone's track and a fused track
+    /// (chi-square, 2 degrees of freedom: 9.21 holds 99 % of true pairs).
+    pub gate_chi2: f64,
+    /// A pair further apart than this (m) is never the same object, whatever the covariances.
+    pub max_distance_m: f64,
+    /// A drone's track not reported for this long (s) no longer counts as seen by that drone.
+    pub live_s: f64,
+    /// Two fused tracks of different drones inside the gate for this long (s) are merged.
+    pub merge_after_s: f64,
+    /// A fused track nobody has reported for this long (s) is dropped.
+    pub keep_s: f64,
+    /// Variance (m^2, per axis) a position gains per second of prediction for the object's
+    /// own motion (a swimmer's strokes, a boat's turns).
+    pub own_motion_m2_s: f64,
+    /// Own motion is counted for at most this long (s); beyond it only the drift's
+    /// uncertainty grows.
+    pub own_motion_max_s: f64,
+    /// Sea drift estimation, as the onboard tracker's `[reid.drift]`.
+    pub drift: DriftParams,
+    /// A track's velocity is a drift sample once the track has been reported this long (s).
+    pub drift_min_age_s: f64,
+}
+
+impl Default for FuseParams {
+    fn default() -> Self {
+        Self {
+            gate_chi2: 9.21,
+            max_distance_m: 30.0,
+            live_s: 3.0,
+            merge_after_s: 2.0,
+            keep_s: 900.0,
+            own_motion_m2_s: 0.5,
+            own_motion_max_s: 60.0,
+            drift: DriftParams::default(),
+            drift_min_age_s: 5.0,
+        }
+    }
+}
+
+impl FuseParams {
+    /// Every parameter in its range; the first one that is not, with why.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("gate_chi2", self.gate_chi2),
+            ("max_distance_m", self.max_distance_m),
+            ("live_s", self.live_s),
+            ("keep_s", self.keep_s),
+            ("own_motion_max_s", self.own_motion_max_s),
+            ("drift.time_constant_s", self.drift.time_constant_s),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be a positive number, not {v}"));
+            }
+        }
+        let non_negative = [
+            ("merge_after_s", self.merge_after_s),
+            ("own_motion_m2_s", self.own_motion_m2_s),
+            ("drift_min_age_s", self.drift_min_age_s),
+            ("drift.min_sample_s", self.drift.min_sample_s),
+            ("drift.max_vel_std_m_s", self.drift.max_vel_std_m_s),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} must be 0 or more, not {v}"));
+            }
+        }
+        if self.keep_s < self.live_s {
+            return Err(format!(
+                "keep_s ({}) must be at least live_s ({})",
+                self.keep_s, self.live_s
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One drone's report of one of its tracks, on the fuser's clock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Report {
+    /// The reporting drone's MAVLink system id.
+    pub system_id: u8,
+    /// The drone's track id.
+    pub track_id: u64,
+    /// The drone's ReID merged this older track into `track_id` (MGMOT_TRACK_FLAGS_MERGED).
+    pub merged_from_id: Option<u64>,
+    /// Class id (SeaDronesSee numbering).
+    pub class_id: u32,
+    /// Time of the state (s, the fuser's clock: [`ClockAlign`](super::ClockAlign)).
+    pub time_s: f64,
+    /// Position on the sea (degrees).
+    pub lat_deg: f64,
+    /// Position on the sea (degrees).
+    pub lon_deg: f64,
+    /// Velocity north, east (m/s), when the report has one (the digest has none).
+    pub vel_ne_m_s: Option<Vector2<f64>>,
+    /// Horizontal uncertainty: DRMS (m), the root of the sum of the two axes' variances.
+    pub h_std_m: f64,
+    /// The drone's detector saw the object at `time_s` (false: the drone's prediction).
+    pub tracked: bool,
+    /// The drone's ReID decision is still pending (MGMOT_TRACK_FLAGS_PROVISIONAL): such a
+    /// report is ignored, its id may still change.
+    pub provisional: bool,
+}
+
+/// A fused id retired by a merge, and the id it lives on as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Retired {
+    /// The id no longer used.
+    pub id: u64,
+    /// The id that continues the object.
+    pub into: u64,
+}
+
+/// Whether anyone sees a fused track's object now.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FusedTrackState {
+    /// A drone's detector saw it in its latest report.
+    Tracked,
+    /// Only predicted: by the drones' filters, or by the fuser with the sea drift once no
+    /// drone reports it.
+    Lost,
+}
+
+/// One drone's track inside a fused track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FusedMember {
+    /// The drone's system id.
+    pub system_id: u8,
+    /// The drone's track id.
+    pub track_id: u64,
+    /// Reported within `live_s`.
+    pub live: bool,
+    /// Its latest report was a detection (not a prediction).
+    pub tracked: bool,
+}
+
+/// One object of the fused picture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FusedTrack {
+    /// Fused id: unique over the fuser's life, never reused.
+    pub id: u64,
+    /// Class id (SeaDronesSee numbering).
+    pub class_id: u32,
+    /// Seen now, or only predicted.
+    pub state: FusedTrackState,
+    /// Position (degrees).
+    pub lat_deg: f64,
+    /// Position (degrees).
+    pub lon_deg: f64,
+    /// Position covariance, north/east (m^2).
+    pub cov_m2: Matrix2<f64>,
+    /// Radius (m) holding the position with 95 % probability.
+    pub ce95_m: f64,
+    /// Velocity north, east (m/s).
+    pub vel_ne_m_s: Vector2<f64>,
+    /// When a drone's detector last saw it (s, the fuser's clock); `None` if only ever
+    /// predicted.
+    pub last_seen_s: Option<f64>,
+    /// The drones' tracks that are this object, by system id then track id.
+    pub members: Vec<FusedMember>,
+    /// Fused ids merged into this one.
+    pub merged_from: Vec<u64>,
+}
+
+/// What the fuser knows of one drone's track.
+#[derive(Debug, Clone)]
+struct Member {
+    class_id: u32,
+    pos: Vector2<f64>,
+    vel: Option<Vector2<f64>>,
+    /// Per-axis position variance (m^2).
+    var: f64,
+    /// Time of the latest state (s).
+    time_s: f64,
+    /// First report (s).
+    first_s: f64,
+    /// Latest report that was a detection (s).
+    last_seen_s: Option<f64>,
+    tracked: bool,
+    fused: Option<u64>,
+}
+
+impl Member {
+    /// Position and per-axis variance at `now_s`.
+    fn predict(&self, now_s: f64, p: &FuseParams) -> (Vector2<f64>, f64) {
+        let dt = (now_s - self.time_s).max(0.0);
+        let pos = self.pos + self.vel.unwrap_or_else(Vector2::zeros) * dt;
+        (pos, self.var + p.own_motion_m2_s * dt)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Fused {
+    class_id: u32,
+    members: BTreeSet<MemberKey>,
+    /// Latest estimate and its time: updated every step while a member is live.
+    pos: Vector2<f64>,
+    cov: Matrix2<f64>,
+    vel: Vector2<f64>,
+    est_time_s: f64,
+    last_seen_s: Option<f64>,
+    merged_from: Vec<u64>,
+}
+
+/// A fused track's position now, and who sees it.
+struct Prediction {
+    pos: Vector2<f64>,
+    cov: Matrix2<f64>,
+    vel: Vector2<f64>,
+    live: usize,
+    tracked: bool,
+}
+
+/// The ground picture. Feed it reports ([`Fuser::observe`]), step it ([`Fuser::step`]),
+/// read it ([`Fuser::picture`]).
+#[derive(Debug, Clone)]
+pub struct Fuser {
+    params: FuseParams,
+    frame: Option<LocalTangentFrame>,
+    members: BTreeMap<MemberKey, Member>,
+    fused: BTreeMap<u64, Fused>,
+    next_id: u64,
+    drift: SeaDrift,
+    retired: Vec<Retired>,
+    /// Pairs of fused ids inside the gate, since when (s).
+    close: BTreeMap<(u64, u64), f64>,
+    last_step_s: Option<f64>,
+}
+
+impl Fuser {
+    /// An empty picture with these parameters (checked with [`FuseParams::validate`] by the
+    /// caller).
+    pub fn new(params: FuseParams) -> Self {
+        let drift = SeaDrift::new(params.drift.clone());
+        Self {
+            params,
+            frame: None,
+            members: BTreeMap::new(),
+            fused: BTreeMap::new(),
+            next_id: 1,
+            drift,
+            retired: Vec::new(),
+            close: BTreeMap::new(),
+            last_step_s: None,
+        }
+    }
+
+    /// Takes one report. Returns `false` when it is not used: provisional, not finite, or
+    /// older than what the fuser already has of that track.
+    pub fn observe(&mut self, r: &Report) -> bool {
+        if r.provisional
+            || !(r.time_s.is_finite() && r.lat_deg.is_finite() && r.lon_deg.is_finite())
+            || !(-90.0..=90.0).contains(&r.lat_deg)
+        {
+            return false;
+        }
+        let frame = self.frame.get_or_insert_with(|| {
+            LocalTangentFrame::new(Geodetic {
+                lat_deg: r.lat_deg,
+                lon_deg: r.lon_deg,
+                alt_m: 0.0,
+            })
+        });
+        let ned = frame.to_ned(&Geodetic {
+            lat_deg: r.lat_deg,
+            lon_deg: r.lon_deg,
+            alt_m: 0.0,
+        });
+        let pos = Vector2::new(ned.x, ned.y);
+        let key = (r.system_id, r.track_id);
+        if let Some(old) = r.merged_from_id.filter(|old| *old != r.track_id) {
+            self.drone_merged((r.system_id, old), key);
+        }
+        let h_std = if r.h_std_m.is_finite() {
+            r.h_std_m
+        } else {
+            0.0
+        };
+        let var = (h_std * h_std / 2.0).max(MIN_STD_M * MIN_STD_M);
+        let vel = r.vel_ne_m_s.filter(|v| v.iter().all(|x| x.is_finite()));
+        match self.members.get_mut(&key) {
+            Some(m) if r.time_s < m.time_s => return false,
+            Some(m) => {
+                m.class_id = r.class_id;
+                m.pos = pos;
+                m.vel = vel;
+                m.var = var;
+                m.time_s = r.time_s;
+                m.tracked = r.tracked;
+                if r.tracked {
+                    m.last_seen_s = Some(r.time_s);
+                }
+            }
+            None => {
+                self.members.insert(
+                    key,
+                    Member {
+                        class_id: r.class_id,
+                        pos,
+                        vel,
+                        var,
+                        time_s: r.time_s,
+                        first_s: r.time_s,
+                        last_seen_s: r.tracked.then_some(r.time_s),
+                        tracked: r.tracked,
+                        fused: None,
+                    },
+                );
+            }
+        }
+        true
+    }
+
+    /// A drone said `old` is `new` (its ReID): the two are one object on the ground too.
+    fn drone_merged(&mut self, old: MemberKey, new: MemberKey) {
+        let Some(gone) = self.members.remove(&old) else {
+            return;
+        };
+        let Some(f_old) = gone.fused else {
+            return;
+        };
+        if let Some(f) = self.fused.get_mut(&f_old) {
+            f.members.remove(&old);
+        }
+        match self.members.get_mut(&new) {
+            Some(m) => match m.fused {
+                Some(f_new) if f_new != f_old => self.merge_fused(f_old, f_new),
+                Some(_) => {}
+                None => {
+                    m.fused = Some(f_old);
+                    if let Some(f) = self.fused.get_mut(&f_old) {
+                        f.members.insert(new);
+                    }
+                }
+            },
+            // The new id's first report: it continues the old id's fused track.
+            None => {
+                self.members.insert(
+                    new,
+                    Member {
+                        fused: None,
+                        ..gone
+                    },
+                );
+                if let Some(m) = self.members.get_mut(&new) {
+                    m.fused = Some(f_old);
+                }
+                if let Some(f) = self.fused.get_mut(&f_old) {
+                    f.members.insert(new);
+                }
+            }
+        }
+    }
+
+    /// Merges fused tracks `a` and `b`: the lower id survives.
+    fn merge_fused(&mut self, a: u64, b: u64) {
+        let (keep, gone) = (a.min(b), a.max(b));
+        let Some(g) = self.fused.remove(&gone) else {
+            return;
+        };
+        for k in &g.members {
+            if let Some(m) = self.members.get_mut(k) {
+                m.fused = Some(keep);
+            }
+        }
+        if let Some(f) = self.fused.get_mut(&keep) {
+            f.members.extend(g.members.iter().copied());
+            f.merged_from.push(gone);
+            f.merged_from.extend(g.merged_from.iter().copied());
+            f.last_seen_s = later(f.last_seen_s, g.last_seen_s);
+        }
+        self.close.retain(|(x, y), _| *x != gone && *y != gone);
+        self.retired.push(Retired {
+            id: gone,
+            into: keep,
+        });
+    }
+
+    fn is_live(&self, m: &Member, now_s: f64) -> bool {
+        now_s - m.time_s <= self.params.live_s
+    }
+
+    /// Where fused track `f` is at `now_s`, and who sees it.
+    fn predict(&self, f: &Fused, now_s: f64) -> Prediction {
+        let p = &self.params;
+        let mut info = Matrix2::zeros();
+        let mut info_pos = Vector2::zeros();
+        let (mut vel_sum, mut vel_n) = (Vector2::zeros(), 0.0);
+        let (mut live, mut tracked) = (0, false);
+        for m in f.members.iter().filter_map(|k| self.members.get(k)) {
+            if !self.is_live(m, now_s) {
+                continue;
+            }
+            let (pos, var) = m.predict(now_s, p);
+            info += Matrix2::identity() / var;
+            info_pos += pos / var;
+            if let Some(v) = m.vel {
+                vel_sum += v;
+                vel_n += 1.0;
+            }
+            live += 1;
+            tracked |= m.tracked;
+        }
+        if live > 0 {
+            if let Some(cov) = info.try_inverse() {
+                let vel = if vel_n > 0.0 {
+                    vel_sum / vel_n
+                } else {
+                    Vector2::zeros()
+                };
+                return Prediction {
+                    pos: cov * info_pos,
+                    cov,
+                    vel,
+                    live,
+                    tracked,
+                };
+            }
+        }
+        // Nobody sees it: carry it with the drift of its class (or, before there is one, its
+        // own velocity for at most own_motion_max_s).
+        let dt = (now_s - f.est_time_s).max(0.0);
+        let own_dt = dt.min(p.own_motion_max_s);
+        let (pos, cov, vel) = match self.drift.estimate(f.class_id) {
+            Some(d) => (
+                f.pos + d.vel_ne_m_s * dt,
+                f.cov + d.cov_m2_s2 * dt * dt + Matrix2::identity() * p.own_motion_m2_s * own_dt,
+                d.vel_ne_m_s,
+            ),
+            None => (
+                f.pos + f.vel * own_dt,
+                f.cov + Matrix2::identity() * p.own_motion_m2_s * own_dt,
+                f.vel,
+            ),
+        };
+        Prediction {
+            pos,
+            cov,
+            vel,
+            live: 0,
+            tracked: false,
+        }
+    }
+
+    /// Squared Mahalanobis distance and distance (m) between two positions, or `None`
+    /// outside the gate.
+    fn gated(
+        &self,
+        a: (Vector2<f64>, Matrix2<f64>),
+        b: (Vector2<f64>, Matrix2<f64>),
+    ) -> Option<f64> {
+        let d = a.0 - b.0;
+        if d.norm() > self.params.max_distance_m {
+            return None;
+        }
+        let s = (a.1 + b.1).try_inverse()?;
+        let d2 = (d.transpose() * s * d)[(0, 0)];
+        (d2.is_finite() && d2 <= self.params.gate_chi2).then_some(d2)
+    }
+
+    /// Advances the picture to `now_s` (the fuser's clock): new drone tracks are associated,
+    /// estimates updated, agreeing fused tracks merged, forgotten ones dropped.
+    pub fn step(&mut self, now_s: f64) {
+        if !now_s.is_finite() {
+            return;
+        }
+        self.last_step_s = Some(now_s);
+        self.observe_drift(now_s);
+        self.associate(now_s);
+        self.update_estimates(now_s);
+        self.merge_agreeing(now_s);
+        self.prune(now_s);
+    }
+
+    fn observe_drift(&mut self, now_s: f64) {
+        let samples: Vec<(u32, u64, Vector2<f64>)> = self
+            .members
+            .iter()
+            .filter(|(_, m)| {
+                self.is_live(m, now_s)
+                    && m.tracked
+                    && m.time_s - m.first_s >= self.params.drift_min_age_s
+            })
+            .filter_map(|((sys, id), m)| Some((m.class_id, (u64::from(*sys) << 56) ^ id, m.vel?)))
+            .collect();
+        self.drift.observe(now_s, &samples);
+    }
+
+    /// Live drone tracks not yet in a fused track join one (or start their own), one drone
+    /// at a time so that two drones' new tracks of one object meet in one step.
+    fn associate(&mut self, now_s: f64) {
+        let mut new: BTreeMap<u8, Vec<MemberKey>> = BTreeMap::new();
+        for (k, m) in &self.members {
+            if m.fused.is_none() && self.is_live(m, now_s) {
+                new.entry(k.0).or_default().push(*k);
+            }
+        }
+        let (mut cost, mut pairs) = (Vec::new(), Vec::new());
+        for (sys, rows) in new {
+            let cols: Vec<(u64, Prediction, bool)> = self
+                .fused
+                .iter()
+                .map(|(id, f)| {
+                    let same_drone_live = f.members.iter().any(|k| {
+                        k.0 == sys && self.members.get(k).is_some_and(|m| self.is_live(m, now_s))
+                    });
+                    (*id, self.predict(f, now_s), same_drone_live)
+                })
+                .collect();
+            cost.clear();
+            for k in &rows {
+                let m = &self.members[k];
+                let (pos, var) = m.predict(now_s, &self.params);
+                for (id, pred, same_drone) in &cols {
+                    let allowed = !same_drone && self.fused[id].class_id == m.class_id;
+                    let c = allowed
+                        .then(|| self.gated((pos, Matrix2::identity() * var), (pred.pos, pred.cov)))
+                        .flatten();
+                    cost.push(c.unwrap_or(f64::INFINITY));
+                }
+            }
+            solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
+            let mut matched = vec![None; rows.len()];
+            for (r, c) in &pairs {
+                matched[*r] = Some(cols[*c].0);
+            }
+            for (k, to) in rows.iter().zip(matched) {
+                let id = match to {
+                    Some(id) => id,
+                    None => self.start_fused(*k, now_s),
+                };
+                if let Some(m) = self.members.get_mut(k) {
+                    m.fused = Some(id);
+                }
+                if let Some(f) = self.fused.get_mut(&id) {
+                    f.members.insert(*k);
+                }
+            }
+        }
+    }
+
+    fn start_fused(&mut self, k: MemberKey, now_s: f64) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        let m = &self.members[&k];
+        let (pos, var) = m.predict(now_s, &self.params);
+        self.fused.insert(
+            id,
+            Fused {
+                class_id: m.class_id,
+                members: BTreeSet::new(),
+                pos,
+                cov: Matrix2::identity() * var,
+                vel: m.vel.unwrap_or_else(Vector2::zeros),
+                est_time_s: now_s,
+                last_seen_s: m.last_seen_s,
+                merged_from: Vec::new(),
+            },
+        );
+        id
+    }
+
+    fn update_estimates(&mut self, now_s: f64) {
+        let updates: Vec<(u64, Prediction, Option<f64>)> = self
+            .fused
+            .iter()
+            .map(|(id, f)| {
+                let seen = f
+                    .members
+                    .iter()
+                    .filter_map(|k| self.members.get(k)?.last_seen_s)
+                    .fold(f.last_seen_s, |a, b| later(a, Some(b)));
+                (*id, self.predict(f, now_s), seen)
+            })
+            .filter(|(_, p, _)| p.live > 0)
+            .collect();
+        for (id, p, seen) in updates {
+            if let Some(f) = self.fused.get_mut(&id) {
+                f.pos = p.pos;
+                f.cov = p.cov;
+                f.vel = p.vel;
+                f.est_time_s = now_s;
+                f.last_seen_s = seen;
+            }
+        }
+    }
+
+    /// The drones that see fused track `f` now.
+    fn live_drones(&self, f: &Fused, now_s: f64) -> BTreeSet<u8> {
+        f.members
+            .iter()
+            .filter(|k| self.members.get(k).is_some_and(|m| self.is_live(m, now_s)))
+            .map(|k| k.0)
+            .collect()
+    }
+
+    /// Merges two seen fused tracks of one class, seen by different drones, that have stayed
+    /// inside the gate for `merge_after_s`.
+    fn merge_agreeing(&mut self, now_s: f64) {
+        let seen: Vec<(u64, u32, Prediction, BTreeSet<u8>, BTreeSet<u8>)> = self
+            .fused
+            .iter()
+            .map(|(id, f)| {
+                let all: BTreeSet<u8> = f.members.iter().map(|k| k.0).collect();
+                (
+                    *id,
+                    f.class_id,
+                    self.predict(f, now_s),
+                    self.live_drones(f, now_s),
+                    all,
+                )
+            })
+            .filter(|(_, _, p, _, _)| p.live > 0)
+            .collect();
+        let mut close_now = BTreeSet::new();
+        for (i, a) in seen.iter().enumerate() {
+            for b in &seen[i + 1..] {
+                // Never two tracks of one drone: the drone's tracker keeps them apart.
+                if a.1 != b.1 || !a.4.is_disjoint(&b.4) {
+                    continue;
+                }
+                if self.gated((a.2.pos, a.2.cov), (b.2.pos, b.2.cov)).is_some() {
+                    close_now.insert((a.0, b.0));
+                }
+            }
+        }
+        self.close.retain(|pair, _| close_now.contains(pair));
+        let mut due = Vec::new();
+        for pair in close_now {
+            let since = *self.close.entry(pair).or_insert(now_s);
+            if now_s - since >= self.params.merge_after_s {
+                due.push(pair);
+            }
+        }
+        for (a, b) in due {
+            // An earlier merge in this step may have retired one of the two.
+            if self.fused.contains_key(&a) && self.fused.contains_key(&b) {
+                self.merge_fused(a, b);
+            }
+        }
+    }
+
+    fn prune(&mut self, now_s: f64) {
+        let keep_s = self.params.keep_s;
+        let gone: Vec<u64> = self
+            .fused
+            .iter()
+            .filter(|(_, f)| now_s - f.est_time_s > keep_s)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in gone {
+            if let Some(f) = self.fused.remove(&id) {
+                for k in f.members {
+                    self.members.remove(&k);
+                }
+            }
+            self.close.retain(|(x, y), _| *x != id && *y != id);
+        }
+        self.members
+            .retain(|_, m| m.fused.is_some() || now_s - m.time_s <= keep_s);
+    }
+
+    /// The fused ids retired by merges since the last call.
+    pub fn take_retired(&mut self) -> Vec<Retired> {
+        std::mem::take(&mut self.retired)
+    }
+
+    /// The fused id a drone's track belongs to, if it has one.
+    pub fn fused_id_of(&self, system_id: u8, track_id: u64) -> Option<u64> {
+        self.members.get(&(system_id, track_id))?.fused
+    }
+
+    /// The picture at `now_s`: every fused track, predicted to then, by id.
+    pub fn picture(&self, now_s: f64) -> Vec<FusedTrack> {
+        let Some(frame) = &self.frame else {
+            return Vec::new();
+        };
+        self.fused
+            .iter()
+            .map(|(id, f)| {
+                let p = self.predict(f, now_s);
+                let g = frame.to_geodetic(&Vector3::new(p.pos.x, p.pos.y, 0.0));
+                let members = f
+                    .members
+                    .iter()
+                    .filter_map(|k| {
+                        let m = self.members.get(k)?;
+                        Some(FusedMember {
+                            system_id: k.0,
+                            track_id: k.1,
+                            live: self.is_live(m, now_s),
+                            tracked: m.tracked,
+                        })
+                    })
+                    .collect();
+                FusedTrack {
+                    id: *id,
+                    class_id: f.class_id,
+                    state: if p.tracked {
+                        FusedTrackState::Tracked
+                    } else {
+                        FusedTrackState::Lost
+                    },
+                    lat_deg: g.lat_deg,
+                    lon_deg: g.lon_deg,
+                    cov_m2: p.cov,
+                    ce95_m: circular_error_m(&p.cov, 0.95).unwrap_or(f64::NAN),
+                    vel_ne_m_s: p.vel,
+                    last_seen_s: f.last_seen_s,
+                    members,
+                    merged_from: f.merged_from.clone(),
+                }
+            })
+            .collect()
+    }
+
+    /// The time of the latest step (s), if any.
+    pub fn last_step_s(&self) -> Option<f64> {
+        self.last_step_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LAT0: f64 = 47.67;
+    const LON0: f64 = 9.27;
+    const M_PER_DEG_LAT: f64 = 111_200.0;
+
+    fn at(n: f64, e: f64) -> (f64, f64) {
+        (
+            LAT0 + n / M_PER_DEG_LAT,
+            LON0 + e / (M_PER_DEG_LAT * LAT0.to_radians().cos()),
+        )
+    }
+
+    fn report(sys: u8, id: u64, class_id: u32, t: f64, n: f64, e: f64, h_std: f64) -> Report {
+        let (lat, lon) = at(n, e);
+        Report {
+            system_id: sys,
+            track_id: id,
+            merged_from_id: None,
+            class_id,
+            time_s: t,
+            lat_deg: lat,
+            lon_deg: lon,
+            vel_ne_m_s: Some(Vector2::zeros()),
+            h_std_m: h_std,
+            tracked: true,
+            provisional: false,
+        }
+    }
+
+    fn ids(f: &Fuser, t: f64) -> Vec<u64> {
+        f.picture(t).iter().map(|t| t.id).collect()
+    }
+
+    #[test]
+    fn two_drones_seeing_one_swimmer_give_one_fused_id() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..10 {
+            let t = f64::from(k);
+            f.observe(&report(1, 12, 1, t, 0.0, 0.0, 3.0));
+            f.observe(&report(2, 7, 1, t, 1.5, -1.0, 3.0));
+            f.step(t);
+        }
+        let p = f.picture(9.0);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(p[0].members.len(), 2);
+        assert_eq!(p[0].state, FusedTrackState::Tracked);
+        assert_eq!(f.fused_id_of(1, 12), f.fused_id_of(2, 7));
+        // The fused covariance is half of either's (equal weights): smaller ce.
+        let single = circular_error_m(&(Matrix2::identity() * 4.5), 0.95).unwrap();
+        assert!(p[0].ce95_m < single, "{} vs {single}", p[0].ce95_m);
+    }
+
+    #[test]
+    fn the_estimate_weighs_the_better_drone_more() {
+        let mut f = Fuser::new(FuseParams::default());
+        // Truth at (0, 0). Drone 1 is 1 m off with h_std 1 m, drone 2 4 m off with 6 m.
+        f.observe(&report(1, 1, 1, 0.0, 1.0, 0.0, 1.0));
+        f.observe(&report(2, 1, 1, 0.0, -4.0, 0.0, 6.0));
+        f.step(0.0);
+        let p = &f.picture(0.0)[0];
+        let frame = LocalTangentFrame::new(Geodetic {
+            lat_deg: p.lat_deg,
+            lon_deg: p.lon_deg,
+            alt_m: 0.0,
+        });
+        let (lat, lon) = at(0.0, 0.0);
+        let err = frame
+            .to_ned(&Geodetic {
+                lat_deg: lat,
+                lon_deg: lon,
+                alt_m: 0.0,
+            })
+            .xy()
+            .norm();
+        assert!(err < 1.0, "fused error {err} m");
+    }
+
+    #[test]
+    fn neighbours_of_different_classes_or_far_apart_stay_apart() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..5 {
+            let t = f64::from(k);
+            f.observe(&report(1, 1, 1, t, 0.0, 0.0, 2.0));
+            f.observe(&report(2, 1, 5, t, 0.5, 0.0, 2.0)); // a buoy beside the swimmer
+            f.observe(&report(2, 2, 1, t, 40.0, 0.0, 2.0)); // another swimmer, 40 m away
+            f.step(t);
+        }
+        assert_eq!(ids(&f, 4.0).len(), 3);
+    }
+
+    #[test]
+    fn one_drone_two_tracks_are_two_objects_even_when_close() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..5 {
+            let t = f64::from(k);
+            f.observe(&report(1, 1, 1, t, 0.0, 0.0, 3.0));
+            f.observe(&report(1, 2, 1, t, 1.0, 0.0, 3.0));
+            f.step(t);
+        }
+        assert_eq!(ids(&f, 4.0).len(), 2);
+        // A second drone's track near both joins exactly one of them.
+        f.observe(&report(2, 9, 1, 5.0, 0.2, 0.0, 3.0));
+        f.observe(&report(1, 1, 1, 5.0, 0.0, 0.0, 3.0));
+        f.observe(&report(1, 2, 1, 5.0, 1.0, 0.0, 3.0));
+        f.step(5.0);
+        let p = f.picture(5.0);
+        assert_eq!(p.len(), 2);
+        assert_eq!(p.iter().map(|t| t.members.len()).sum::<usize>(), 3);
+        assert_eq!(f.fused_id_of(2, 9), f.fused_id_of(1, 1));
+    }
+
+    #[test]
+    fn a_drone_merge_merges_the_fused_tracks() {
+        let mut f = Fuser::new(FuseParams::default());
+        // Drone 1 sees a swimmer as track 3 and loses it; its new track 8, 25 m on (too far
+        // for the fuser's gate), gets a fused id of its own. Then drone 1's ReID says 8 is 3:
+        // MGMOT_TRACK continues id 3 with merged_from_id 8.
+        f.observe(&report(1, 3, 1, 0.0, 0.0, 0.0, 2.0));
+        f.step(0.0);
+        let first = f.fused_id_of(1, 3);
+        f.observe(&report(1, 8, 1, 10.0, 25.0, 0.0, 2.0));
+        f.step(10.0);
+        assert_ne!(f.fused_id_of(1, 8), first);
+        let mut r = report(1, 3, 1, 11.0, 25.0, 0.0, 2.0);
+        r.merged_from_id = Some(8);
+        f.observe(&r);
+        f.step(11.0);
+        assert_eq!(f.fused_id_of(1, 3), first);
+        assert_eq!(f.fused_id_of(1, 8), None);
+        let retired = f.take_retired();
+        assert_eq!(retired.len(), 1);
+        assert_eq!(Some(retired[0].into), first);
+        assert_eq!(ids(&f, 11.0), vec![first.unwrap()]);
+    }
+
+    #[test]
+    fn tracks_appearing_apart_and_converging_are_merged_after_the_wait() {
+        let p = FuseParams {
+            max_distance_m: 30.0,
+            ..FuseParams::default()
+        };
+        let mut f = Fuser::new(p);
+        // First sight 20 m apart (a bad first fix), then converging on the same point.
+        f.observe(&report(1, 1, 2, 0.0, 0.0, 0.0, 2.0));
+        f.observe(&report(2, 1, 2, 0.0, 20.0, 0.0, 2.0));
+        f.step(0.0);
+        assert_eq!(ids(&f, 0.0).len(), 2);
+        for k in 1..=4 {
+            let t = f64::from(k);
+            f.observe(&report(1, 1, 2, t, 0.0, 0.0, 2.0));
+            f.observe(&report(2, 1, 2, t, 0.5, 0.0, 2.0));
+            f.step(t);
+        }
+        assert_eq!(ids(&f, 4.0), vec![1]);
+        assert_eq!(f.take_retired(), vec![Retired { id: 2, into: 1 }]);
+    }
+
+    #[test]
+    fn a_lost_object_drifts_and_a_later_drone_track_rejoins_it() {
+        let mut f = Fuser::new(FuseParams::default());
+        // Three swimmers drift east at 0.2 m/s, seen by drone 1 for 60 s.
+        let drift = 0.2;
+        for k in 0..60 {
+            let t = f64::from(k);
+            for (id, n) in [(1u64, 0.0), (2, 15.0), (3, -15.0)] {
+                let mut r = report(1, id, 1, t, n, drift * t, 2.0);
+                r.vel_ne_m_s = Some(Vector2::new(0.0, drift));
+                f.observe(&r);
+            }
+            f.step(t);
+        }
+        assert_eq!(ids(&f, 59.0), vec![1, 2, 3]);
+        // Nobody sees them for two minutes.
+        for k in 60..180 {
+            f.step(f64::from(k));
+        }
+        let lost = f.picture(180.0);
+        assert!(lost.iter().all(|t| t.state == FusedTrackState::Lost));
+        // Drone 2 comes and finds swimmer 1 where the current took it.
+        let t = 180.0;
+        let mut r = report(2, 40, 1, t, 0.5, drift * t, 2.0);
+        r.vel_ne_m_s = Some(Vector2::new(0.0, drift));
+        f.observe(&r);
+        f.step(t);
+        assert_eq!(f.fused_id_of(2, 40), Some(1));
+        assert_eq!(ids(&f, t).len(), 3);
+    }
+
+    #[test]
+    fn provisional_and_stale_reports_are_not_used() {
+        let mut f = Fuser::new(FuseParams::default());
+        let mut r = report(1, 1, 1, 5.0, 0.0, 0.0, 2.0);
+        r.provisional = true;
+        assert!(!f.observe(&r));
+        r.provisional = false;
+        assert!(f.observe(&r));
+        assert!(!f.observe(&report(1, 1, 1, 4.0, 3.0, 0.0, 2.0)));
+        let mut bad = report(1, 2, 1, 5.0, 0.0, 0.0, 2.0);
+        bad.lat_deg = f64::NAN;
+        assert!(!f.observe(&bad));
+        f.step(5.0);
+        assert_eq!(ids(&f, 5.0).len(), 1);
+    }
+
+    #[test]
+    fn forgotten_after_keep_s() {
+        let p = FuseParams {
+            keep_s: 30.0,
+            ..FuseParams::default()
+        };
+        let mut f = Fuser::new(p);
+        f.observe(&report(1, 1, 1, 0.0, 0.0, 0.0, 2.0));
+        f.step(0.0);
+        f.step(20.0);
+        assert_eq!(ids(&f, 20.0).len(), 1);
+        f.step(40.0);
+        assert!(ids(&f, 40.0).is_empty());
+        assert_eq!(f.fused_id_of(1, 1), None);
+    }
+
+    #[test]
+    fn validate_names_the_bad_parameter() {
+        let p = FuseParams {
+            gate_chi2: -1.0,
+            ..FuseParams::default()
+        };
+        assert!(p.validate().unwrap_err().contains("gate_chi2"));
+        assert!(FuseParams::default().validate().is_ok());
+    }
+
+    mod properties {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            /// Objects further apart than the distance cap, each seen by two drones with errors
+            /// inside their stated uncertainty: exactly one fused id per object, holding both
+            /// drones' tracks, and the fused position never further from the truth than the
+            /// worse of the two reports (it is a weighted mean of them).
+            #[test]
+            fn separated_objects_seen_by_two_drones_fuse_one_to_one(
+                objects in proptest::collection::vec(
+                    ((-1.0f64..1.0, -1.0f64..1.0), (-1.0f64..1.0, -1.0f64..1.0), 1.0f64..4.0),
+                    1..8,
+                ),
+            ) {
+                let mut f = Fuser::new(FuseParams::default());
+                let spacing = 100.0;
+                for (k, (e1, e2, h_std)) in objects.iter().enumerate() {
+                    let n = spacing * k as f64;
+                    let id = k as u64 + 1;
+                    f.observe(&report(1, id, 1, 0.0, n + e1.0, e1.1, *h_std));
+                    f.observe(&report(2, 100 + id, 1, 0.0, n + e2.0, e2.1, *h_std));
+                }
+                f.step(0.0);
+                let picture = f.picture(0.0);
+                prop_assert_eq!(picture.len(), objects.len());
+                let frame = LocalTangentFrame::new(Geodetic { lat_deg: LAT0, lon_deg: LON0, alt_m: 0.0 });
+                for (k, (e1, e2, _)) in objects.iter().enumerate() {
+                    let id = k as u64 + 1;
+                    let fused = f.fused_id_of(1, id);
+                    prop_assert!(fused.is_some());
+                    prop_assert_eq!(fused, f.fused_id_of(2, 100 + id));
+                    let t = picture.iter().find(|t| Some(t.id) == fused).unwrap();
+                    prop_assert_eq!(t.members.len(), 2);
+                    let (lat, lon) = at(spacing * k as f64, 0.0);
+                    let truth = frame.to_ned(&Geodetic { lat_deg: lat, lon_deg: lon, alt_m: 0.0 }).xy();
+                    let got = frame.to_ned(&Geodetic { lat_deg: t.lat_deg, lon_deg: t.lon_deg, alt_m: 0.0 }).xy();
+                    let worse = e1.0.hypot(e1.1).max(e2.0.hypot(e2.1));
+                    prop_assert!((got - truth).norm() <= worse + 0.05, "{} > {}", (got - truth).norm(), worse);
+                }
+            }
+        }
+    }
+}
