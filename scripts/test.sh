@@ -27,7 +27,7 @@ export PATH="$PWD/.venv/bin:$PATH"
 # Debian's Chromium, headless: tests/review.rs opens `mgmot review`'s report in it (and fails,
 # naming it, without it).
 if ! command -v chromium >/dev/null 2>&1; then
-  echo "== chromium (tests/review.rs)"
+  echo "== chromium (tests/review.rs, tests/ground.rs)"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
 fi

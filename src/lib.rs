@@ -29,6 +29,7 @@ pub mod cot;
 pub mod detect;
 pub mod firmware;
 pub mod formats;
+pub mod ground;
 pub mod logging;
 pub mod mavlink;
 pub mod pipeline;

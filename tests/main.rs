@@ -16,6 +16,7 @@ mod eval_motmetrics;
 mod eval_trackeval_fixtures;
 mod firmware_config;
 mod fuzz_decoders;
+mod ground;
 mod link_hardening;
 mod real_data_geolocation;
 mod recording;

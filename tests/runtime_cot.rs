@@ -66,7 +66,7 @@ fn split(stream: &str) -> Vec<String> {
 }
 
 /// Runs `cot_check.py` on the events; panics with its report when any fails.
-fn schema_check(dir: &TestDir, name: &str, events: &[String]) -> String {
+pub(crate) fn schema_check(dir: &TestDir, name: &str, events: &[String]) -> String {
     require_python("runtime_cot", &["lxml"]);
     let path = dir.join(name);
     std::fs::write(&path, events.concat()).expect("write the events");

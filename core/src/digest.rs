@@ -182,6 +182,55 @@ pub fn class_name(id: u32) -> &'static str {
     CLASSES.get(id as usize).copied().unwrap_or(CLASSES[0])
 }
 
+/// A position read back from a digest text (what a ground station that only gets STATUSTEXT
+/// can use): the `new` announcement or a periodic position line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DigestPosition {
+    /// Track id.
+    pub track_id: u64,
+    /// Class id (SeaDronesSee numbering; 0 for a name this digest does not write).
+    pub class_id: u32,
+    /// Latitude (degrees).
+    pub lat_deg: f64,
+    /// Longitude (degrees).
+    pub lon_deg: f64,
+    /// How long before the text was sent the object was seen there (s; 0 for `new`).
+    pub age_s: f64,
+}
+
+/// Reads a digest text back: `mgmot new swimmer #12 47.672345,9.268012` or
+/// `mgmot #12 swimmer 47.672345,9.268012 4s ago`; `None` for anything else (the count line,
+/// other STATUSTEXTs, a text cut short).
+pub fn parse_text(text: &str) -> Option<DigestPosition> {
+    let words: Vec<&str> = text.split_whitespace().collect();
+    let (id, class, position, age_s) = match words.as_slice() {
+        ["mgmot", "new", class, id, position] => (*id, *class, *position, 0.0),
+        ["mgmot", id, class, position, age, "ago"] => {
+            let age_s: f64 = age.strip_suffix('s')?.parse().ok()?;
+            (*id, *class, *position, age_s)
+        }
+        _ => return None,
+    };
+    let track_id = id.strip_prefix('#')?.parse().ok()?;
+    let (lat, lon) = position.split_once(',')?;
+    let (lat_deg, lon_deg): (f64, f64) = (lat.parse().ok()?, lon.parse().ok()?);
+    let valid = lat_deg.is_finite()
+        && lon_deg.is_finite()
+        && (-90.0..=90.0).contains(&lat_deg)
+        && (-180.0..=180.0).contains(&lon_deg)
+        && age_s >= 0.0;
+    valid.then(|| DigestPosition {
+        track_id,
+        class_id: CLASSES
+            .iter()
+            .position(|c| *c == class)
+            .map_or(0, |i| i as u32),
+        lat_deg,
+        lon_deg,
+        age_s,
+    })
+}
+
 /// At most [`TEXT_LEN`] characters (the texts are ASCII; a cut never splits a character).
 fn clip(mut s: String) -> String {
     if s.len() > TEXT_LEN {
@@ -383,6 +432,32 @@ mod tests {
         assert!(text.len() <= TEXT_LEN, "{text}");
         for t in d.due(2_000_000) {
             assert!(t.len() <= TEXT_LEN, "{t}");
+        }
+    }
+
+    #[test]
+    fn texts_read_back_to_the_positions_they_carry() {
+        let mut d = Digest::new(DigestSettings {
+            every_us: 1_000_000,
+            max_positions: 3,
+        });
+        let r = report(12, 5, 0.0, Some((47.672345, -9.268012)));
+        let new = d.observe(&r, 0).unwrap();
+        let p = parse_text(&new).unwrap();
+        assert_eq!((p.track_id, p.class_id, p.age_s), (12, 5, 0.0));
+        assert_eq!((p.lat_deg, p.lon_deg), (47.672345, -9.268012));
+        let texts = d.due(4_000_000);
+        assert!(parse_text(&texts[0]).is_none(), "{}", texts[0]);
+        let p = parse_text(&texts[1]).unwrap();
+        assert_eq!((p.track_id, p.class_id, p.age_s), (12, 5, 4.0));
+        for bad in [
+            "mgmot #12 swimmer 47.6,9.2 4s",
+            "mgmot new swimmer 12 47.6,9.2",
+            "mgmot new swimmer #12 95.0,9.2",
+            "PreArm: GPS",
+            "mgmot #x swimmer 1,2 3s ago",
+        ] {
+            assert!(parse_text(bad).is_none(), "{bad}");
         }
     }
 }

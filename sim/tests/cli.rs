@@ -35,6 +35,7 @@ fn lists_the_shipped_scenarios() {
         "expanding_square",
         "sector_search",
         "two_drones",
+        "two_drones_abreast",
     ] {
         assert!(out.contains(name), "{name} missing from:\n{out}");
     }

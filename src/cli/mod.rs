@@ -10,6 +10,7 @@ mod detect;
 mod eval;
 mod firmware_check;
 mod geolocate;
+mod ground;
 mod oracle;
 mod replay;
 mod review;
@@ -49,6 +50,8 @@ enum Command {
     Review(review::Args),
     /// Re-run tracking over a recorded flight (online reproduces it; offline post-processes).
     Replay(replay::Args),
+    /// Fuse every drone's tracks into one ground picture (live map, GeoJSON, CoT, recording).
+    Ground(ground::Args),
     /// Label detections with their true ids: the identity ceiling for tracking benchmarks.
     Oracle(oracle::Args),
 }
@@ -67,6 +70,7 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Review(args) => review::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Ground(args) => ground::run(args),
         Command::Oracle(args) => oracle::run(args),
     };
     match result {

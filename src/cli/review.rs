@@ -17,7 +17,9 @@ use std::time::Duration;
 /// embedded), and `tracks.geojson` and `tracks.kml` in the same folder (QGIS, Google Earth).
 #[derive(Debug, ClapArgs)]
 pub struct Args {
-    /// The flight's folder (`<recording.dir>/<UTC start>-sys<id>`, holding flight.json).
+    /// The flight's folder (`<recording.dir>/<UTC start>-sys<id>`, holding flight.json), or
+    /// a `mgmot ground --record` file (the fused picture: a table of the fused ids and
+    /// `ground_tracks.geojson` of their paths beside the report).
     flight: PathBuf,
     /// The report (HTML); its folder is created if missing.
     #[arg(long)]
@@ -40,6 +42,9 @@ fn spinner() -> ProgressBar {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.flight.is_file() {
+        return run_ground(&args);
+    }
     let pb = spinner();
     pb.set_message("reading the flight");
     let flight = Flight::load(&args.flight).with_context(|| {
@@ -102,5 +107,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     writeln!(out, "report:  {}", written.report.display())?;
     writeln!(out, "geojson: {}", written.geojson.display())?;
     writeln!(out, "kml:     {}", written.kml.display())?;
+    Ok(())
+}
+
+/// Reviews a `mgmot ground` recording.
+fn run_ground(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.truth.is_none(),
+        "--truth is for flight folders; {} is a file (a ground recording?)",
+        args.flight.display()
+    );
+    let (_, pictures) = mgmot::ground::record::read(&args.flight).map_err(anyhow::Error::msg)?;
+    let lives = review::ground::lives(&pictures);
+    let folder = match args.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+    let html = review::ground::html(&lives, pictures.len(), &args.flight.display().to_string());
+    std::fs::write(&args.out, html).with_context(|| format!("writing {}", args.out.display()))?;
+    let geojson = folder.join("ground_tracks.geojson");
+    std::fs::write(&geojson, review::ground::paths_geojson(&lives).to_string())
+        .with_context(|| format!("writing {}", geojson.display()))?;
+    let mut out = Stdout::lock();
+    writeln!(
+        out,
+        "{}: {} updates, {} fused ids",
+        args.flight.display(),
+        pictures.len(),
+        lives.len()
+    )?;
+    writeln!(out, "report:  {}", args.out.display())?;
+    writeln!(out, "geojson: {}", geojson.display())?;
     Ok(())
 }

@@ -9,6 +9,7 @@
 
 mod build;
 pub mod geo_export;
+pub mod ground;
 mod health;
 pub mod html;
 mod model;

@@ -19,7 +19,7 @@
 
 mod relay;
 
-pub use mgmot_testkit::free_udp_port;
+pub use mgmot_testkit::{free_tcp_port, free_udp_port};
 pub use relay::{Relay, Sent};
 
 use mgmot::config::{Config, DetectorConfig, FramesConfig};
@@ -399,6 +399,10 @@ pub struct Scenario {
     pub name: String,
     pub duration_s: f64,
     pub size_px: Option<(u32, u32)>,
+    /// Which of the scenario's vehicles (`--vehicle K`); `None`: the first.
+    pub vehicle: Option<usize>,
+    /// Another seed than the scenario's (`--seed N`).
+    pub seed: Option<u64>,
 }
 
 impl Scenario {
@@ -407,7 +411,19 @@ impl Scenario {
             name: name.into(),
             duration_s,
             size_px: None,
+            vehicle: None,
+            seed: None,
         }
+    }
+
+    pub fn seed(mut self, seed: Option<u64>) -> Scenario {
+        self.seed = seed;
+        self
+    }
+
+    pub fn vehicle(mut self, k: usize) -> Scenario {
+        self.vehicle = Some(k);
+        self
     }
 
     pub fn size(mut self, width: u32, height: u32) -> Scenario {
@@ -430,6 +446,12 @@ impl Scenario {
                 "--height".into(),
                 h.to_string(),
             ]);
+        }
+        if let Some(k) = self.vehicle {
+            a.extend(["--vehicle".into(), k.to_string()]);
+        }
+        if let Some(seed) = self.seed {
+            a.extend(["--seed".into(), seed.to_string()]);
         }
         a
     }

@@ -41,6 +41,12 @@ pub struct Relay {
 impl Relay {
     /// Starts relaying to mgmot at `127.0.0.1:mgmot_port`.
     pub fn start(mgmot_port: u16) -> Relay {
+        Relay::start_teed(mgmot_port, None)
+    }
+
+    /// As [`Relay::start`], and also copies every datagram of both directions to
+    /// `127.0.0.1:tee_port`, as mavlink-router copies everything to a ground station.
+    pub fn start_teed(mgmot_port: u16, tee_port: Option<u16>) -> Relay {
         // One thread per direction, each blocking on its socket (the timeout only lets it see
         // `stop`): at 50 Hz per stream the simulator sends a few hundred datagrams a second,
         // and one thread polling both sockets in turn fell behind on a loaded machine.
@@ -68,6 +74,9 @@ impl Relay {
                     if let Ok((n, from)) = up.recv_from(&mut buf) {
                         *sim.lock().unwrap() = Some(from);
                         let _ = down.send_to(&buf[..n], ("127.0.0.1", mgmot_port));
+                        if let Some(tee) = tee_port {
+                            let _ = down.send_to(&buf[..n], ("127.0.0.1", tee));
+                        }
                     }
                 }
             })
@@ -81,6 +90,9 @@ impl Relay {
                         let to_sim = *sim.lock().unwrap();
                         if let Some(to_sim) = to_sim {
                             let _ = up.send_to(&buf[..n], to_sim);
+                        }
+                        if let Some(tee) = tee_port {
+                            let _ = up.send_to(&buf[..n], ("127.0.0.1", tee));
                         }
                         let mut reader = MavlinkReader::new(&buf[..n]);
                         while let Ok((header, msg)) =

@@ -17,6 +17,10 @@ fn later(a: Option<f64>, b: Option<f64>) -> Option<f64> {
     }
 }
 
+/// A report this much (s) older than the latest of its track is not late but on a clock
+/// that was re-mapped.
+const CLOCK_JUMP_S: f64 = 30.0;
+
 /// A drone's track: (system id, track id).
 pub type MemberKey = (u8, u64);
 
@@ -45,6 +49,9 @@ pub struct FuseParams {
     /// Own motion is counted for at most this long (s); beyond it only the drift's
     /// uncertainty grows.
     pub own_motion_max_s: f64,
+    /// A drone's track is carried forward to now with its velocity only when its speed is
+    /// at least this (m/s); slower, its velocity is mostly the drone filter's noise.
+    pub min_extrapolation_speed_m_s: f64,
     /// Sea drift estimation, as the onboard tracker's `[reid.drift]`.
     pub drift: DriftParams,
     /// A track's velocity is a drift sample once the track has been reported this long (s).
@@ -61,6 +68,7 @@ impl Default for FuseParams {
             keep_s: 900.0,
             own_motion_m2_s: 0.5,
             own_motion_max_s: 60.0,
+            min_extrapolation_speed_m_s: 1.0,
             drift: DriftParams::default(),
             drift_min_age_s: 5.0,
         }
@@ -86,6 +94,10 @@ impl FuseParams {
         let non_negative = [
             ("merge_after_s", self.merge_after_s),
             ("own_motion_m2_s", self.own_motion_m2_s),
+            (
+                "min_extrapolation_speed_m_s",
+                self.min_extrapolation_speed_m_s,
+            ),
             ("drift_min_age_s", self.drift_min_age_s),
             ("drift.min_sample_s", self.drift.min_sample_s),
             ("drift.max_vel_std_m_s", self.drift.max_vel_std_m_s),
@@ -216,7 +228,13 @@ impl Member {
     /// Position and per-axis variance at `now_s`.
     fn predict(&self, now_s: f64, p: &FuseParams) -> (Vector2<f64>, f64) {
         let dt = (now_s - self.time_s).max(0.0);
-        let pos = self.pos + self.vel.unwrap_or_else(Vector2::zeros) * dt;
+        // A drone's velocity of a swimmer is mostly its filter's noise: extrapolating with
+        // it adds error. Only a clearly moving object (a boat under way) is carried forward.
+        let vel = self
+            .vel
+            .filter(|v| v.norm() >= p.min_extrapolation_speed_m_s)
+            .unwrap_or_else(Vector2::zeros);
+        let pos = self.pos + vel * dt;
         (pos, self.var + p.own_motion_m2_s * dt)
     }
 }
@@ -256,6 +274,8 @@ pub struct Fuser {
     retired: Vec<Retired>,
     /// Pairs of fused ids inside the gate, since when (s).
     close: BTreeMap<(u64, u64), f64>,
+    /// Fused tracks a re-acquired drone track left (see [`Fuser::observe`]), with that track.
+    left: Vec<(u64, MemberKey)>,
     last_step_s: Option<f64>,
 }
 
@@ -273,6 +293,7 @@ impl Fuser {
             drift,
             retired: Vec::new(),
             close: BTreeMap::new(),
+            left: Vec::new(),
             last_step_s: None,
         }
     }
@@ -310,8 +331,11 @@ impl Fuser {
         };
         let var = (h_std * h_std / 2.0).max(MIN_STD_M * MIN_STD_M);
         let vel = r.vel_ne_m_s.filter(|v| v.iter().all(|x| x.is_finite()));
+        self.check_reacquired(key, pos, var, r.time_s);
         match self.members.get_mut(&key) {
-            Some(m) if r.time_s < m.time_s => return false,
+            // Out of order; but a jump back by more than CLOCK_JUMP_S is the vehicle's clock
+            // being mapped anew (its SYSTEM_TIME arrived, or it rebooted): taken.
+            Some(m) if r.time_s < m.time_s && m.time_s - r.time_s < CLOCK_JUMP_S => return false,
             Some(m) => {
                 m.class_id = r.class_id;
                 m.pos = pos;
@@ -341,6 +365,52 @@ impl Fuser {
             }
         }
         true
+    }
+
+    /// A drone track reported again after a gap (not live) far outside the gate of its fused
+    /// track leaves it and is associated anew: the drone's long-term ReID took it for the
+    /// object that fused track follows, the ground's picture says otherwise (a real
+    /// re-acquisition lands where the fused track, carried with the drift, predicts).
+    fn check_reacquired(&mut self, key: MemberKey, pos: Vector2<f64>, var: f64, time_s: f64) {
+        let Some(m) = self.members.get(&key) else {
+            return;
+        };
+        let Some(fid) = m.fused.filter(|_| !self.is_live(m, time_s)) else {
+            return;
+        };
+        let Some(f) = self.fused.get(&fid) else {
+            return;
+        };
+        let p = self.predict(f, time_s);
+        if self
+            .gated((pos, Matrix2::identity() * var), (p.pos, p.cov))
+            .is_some()
+        {
+            return;
+        }
+        if let Some(m) = self.members.get_mut(&key) {
+            m.fused = None;
+        }
+        if let Some(f) = self.fused.get_mut(&fid) {
+            f.members.remove(&key);
+        }
+        self.left.push((fid, key));
+    }
+
+    /// A fused track that a re-acquired drone track left with no member is retired into the
+    /// fused track that drone track joined.
+    fn retire_left(&mut self) {
+        for (fid, key) in std::mem::take(&mut self.left) {
+            let into = self.members.get(&key).and_then(|m| m.fused);
+            let empty = self.fused.get(&fid).is_some_and(|f| f.members.is_empty());
+            if let (true, Some(into)) = (empty, into) {
+                if into != fid {
+                    self.fused.remove(&fid);
+                    self.close.retain(|(x, y), _| *x != fid && *y != fid);
+                    self.retired.push(Retired { id: fid, into });
+                }
+            }
+        }
     }
 
     /// A drone said `old` is `new` (its ReID): the two are one object on the ground too.
@@ -397,6 +467,13 @@ impl Fuser {
         }
         if let Some(f) = self.fused.get_mut(&keep) {
             f.members.extend(g.members.iter().copied());
+            // The more recent estimate stands for the merged track until the next step.
+            if g.est_time_s > f.est_time_s {
+                f.pos = g.pos;
+                f.cov = g.cov;
+                f.vel = g.vel;
+                f.est_time_s = g.est_time_s;
+            }
             f.merged_from.push(gone);
             f.merged_from.extend(g.merged_from.iter().copied());
             f.last_seen_s = later(f.last_seen_s, g.last_seen_s);
@@ -406,6 +483,28 @@ impl Fuser {
             id: gone,
             into: keep,
         });
+    }
+
+    /// Whether two tracks of one drone can be one object: the drone saw them at different
+    /// times (one ended, or only coasted, before the other was first reported). Tracks the
+    /// drone saw at the same time are two objects: its own tracker kept them apart.
+    fn sequential(a: &Member, b: &Member) -> bool {
+        let a_last = a.last_seen_s.unwrap_or(a.first_s);
+        let b_last = b.last_seen_s.unwrap_or(b.first_s);
+        a_last < b.first_s || b_last < a.first_s
+    }
+
+    /// Whether the tracks of `a` and `b` can be one object: every pair of tracks of one
+    /// drone is [`Fuser::sequential`].
+    fn compatible(&self, a: &BTreeSet<MemberKey>, b: &BTreeSet<MemberKey>) -> bool {
+        a.iter().all(|ka| {
+            b.iter().filter(|kb| kb.0 == ka.0).all(|kb| {
+                match (self.members.get(ka), self.members.get(kb)) {
+                    (Some(ma), Some(mb)) => Self::sequential(ma, mb),
+                    _ => true,
+                }
+            })
+        })
     }
 
     fn is_live(&self, m: &Member, now_s: f64) -> bool {
@@ -419,8 +518,15 @@ impl Fuser {
         let mut info_pos = Vector2::zeros();
         let (mut vel_sum, mut vel_n) = (Vector2::zeros(), 0.0);
         let (mut live, mut tracked) = (0, false);
+        // A drone's sighting beats any drone's prediction: while one live member is tracked,
+        // the coasting ones are left out.
+        let any_tracked = f
+            .members
+            .iter()
+            .filter_map(|k| self.members.get(k))
+            .any(|m| m.tracked && self.is_live(m, now_s));
         for m in f.members.iter().filter_map(|k| self.members.get(k)) {
-            if !self.is_live(m, now_s) {
+            if !self.is_live(m, now_s) || (any_tracked && !m.tracked) {
                 continue;
             }
             let (pos, var) = m.predict(now_s, p);
@@ -499,6 +605,7 @@ impl Fuser {
         self.last_step_s = Some(now_s);
         self.observe_drift(now_s);
         self.associate(now_s);
+        self.retire_left();
         self.update_estimates(now_s);
         self.merge_agreeing(now_s);
         self.prune(now_s);
@@ -528,23 +635,20 @@ impl Fuser {
             }
         }
         let (mut cost, mut pairs) = (Vec::new(), Vec::new());
-        for (sys, rows) in new {
-            let cols: Vec<(u64, Prediction, bool)> = self
+        for rows in new.into_values() {
+            let cols: Vec<(u64, Prediction)> = self
                 .fused
                 .iter()
-                .map(|(id, f)| {
-                    let same_drone_live = f.members.iter().any(|k| {
-                        k.0 == sys && self.members.get(k).is_some_and(|m| self.is_live(m, now_s))
-                    });
-                    (*id, self.predict(f, now_s), same_drone_live)
-                })
+                .map(|(id, f)| (*id, self.predict(f, now_s)))
                 .collect();
             cost.clear();
             for k in &rows {
                 let m = &self.members[k];
                 let (pos, var) = m.predict(now_s, &self.params);
-                for (id, pred, same_drone) in &cols {
-                    let allowed = !same_drone && self.fused[id].class_id == m.class_id;
+                let me = BTreeSet::from([*k]);
+                for (id, pred) in &cols {
+                    let f = &self.fused[id];
+                    let allowed = f.class_id == m.class_id && self.compatible(&me, &f.members);
                     let c = allowed
                         .then(|| self.gated((pos, Matrix2::identity() * var), (pred.pos, pred.cov)))
                         .flatten();
@@ -617,38 +721,19 @@ impl Fuser {
         }
     }
 
-    /// The drones that see fused track `f` now.
-    fn live_drones(&self, f: &Fused, now_s: f64) -> BTreeSet<u8> {
-        f.members
-            .iter()
-            .filter(|k| self.members.get(k).is_some_and(|m| self.is_live(m, now_s)))
-            .map(|k| k.0)
-            .collect()
-    }
-
-    /// Merges two seen fused tracks of one class, seen by different drones, that have stayed
-    /// inside the gate for `merge_after_s`.
+    /// Merges two seen fused tracks of one class that have stayed inside the gate for
+    /// `merge_after_s`, unless one drone saw both at the same time.
     fn merge_agreeing(&mut self, now_s: f64) {
-        let seen: Vec<(u64, u32, Prediction, BTreeSet<u8>, BTreeSet<u8>)> = self
+        let seen: Vec<(u64, &Fused, Prediction)> = self
             .fused
             .iter()
-            .map(|(id, f)| {
-                let all: BTreeSet<u8> = f.members.iter().map(|k| k.0).collect();
-                (
-                    *id,
-                    f.class_id,
-                    self.predict(f, now_s),
-                    self.live_drones(f, now_s),
-                    all,
-                )
-            })
-            .filter(|(_, _, p, _, _)| p.live > 0)
+            .map(|(id, f)| (*id, f, self.predict(f, now_s)))
+            .filter(|(_, _, p)| p.live > 0)
             .collect();
         let mut close_now = BTreeSet::new();
         for (i, a) in seen.iter().enumerate() {
             for b in &seen[i + 1..] {
-                // Never two tracks of one drone: the drone's tracker keeps them apart.
-                if a.1 != b.1 || !a.4.is_disjoint(&b.4) {
+                if a.1.class_id != b.1.class_id || !self.compatible(&a.1.members, &b.1.members) {
                     continue;
                 }
                 if self.gated((a.2.pos, a.2.cov), (b.2.pos, b.2.cov)).is_some() {
@@ -744,6 +829,11 @@ impl Fuser {
                 }
             })
             .collect()
+    }
+
+    /// How many fused ids were ever given.
+    pub fn ids_given(&self) -> u64 {
+        self.next_id - 1
     }
 
     /// The time of the latest step (s), if any.
@@ -867,6 +957,61 @@ mod tests {
     }
 
     #[test]
+    fn a_drones_new_track_after_its_old_one_coasted_rejoins_the_fused_id() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..5 {
+            f.observe(&report(1, 1, 1, f64::from(k), 0.0, 0.0, 2.0));
+            f.step(f64::from(k));
+        }
+        // Track 1 coasts (the drone still reports its prediction) when the drone's tracker
+        // starts track 2 on the same swimmer without linking them.
+        for k in 5..9 {
+            let t = f64::from(k);
+            let mut coasting = report(1, 1, 1, t, 0.0, 0.0, 3.0);
+            coasting.tracked = false;
+            f.observe(&coasting);
+            if k >= 7 {
+                f.observe(&report(1, 2, 1, t, 0.8, 0.0, 2.0));
+            }
+            f.step(t);
+        }
+        assert_eq!(f.fused_id_of(1, 2), f.fused_id_of(1, 1));
+        assert_eq!(ids(&f, 8.0).len(), 1);
+    }
+
+    #[test]
+    fn a_drone_track_reacquired_far_from_its_fused_track_leaves_it() {
+        let mut f = Fuser::new(FuseParams::default());
+        // Drone 2's track 12 follows something for 5 s, then is not reported for 10 s.
+        for k in 0..5 {
+            f.observe(&report(2, 12, 2, f64::from(k), 100.0, 0.0, 2.0));
+            f.step(f64::from(k));
+        }
+        let phantom = f.fused_id_of(2, 12).unwrap();
+        // Meanwhile drone 1 tracks a boat 100 m away.
+        for k in 10..15 {
+            f.observe(&report(1, 22, 2, f64::from(k), 0.0, 0.0, 2.0));
+            f.step(f64::from(k));
+        }
+        let boat = f.fused_id_of(1, 22).unwrap();
+        assert_ne!(boat, phantom);
+        // Drone 2's ReID puts its track 12 on that boat: it joins the boat's fused id and
+        // the phantom's id ends in it.
+        f.observe(&report(2, 12, 2, 15.0, 0.5, 0.0, 2.0));
+        f.observe(&report(1, 22, 2, 15.0, 0.0, 0.0, 2.0));
+        f.step(15.0);
+        assert_eq!(f.fused_id_of(2, 12), Some(boat));
+        assert_eq!(
+            f.take_retired(),
+            vec![Retired {
+                id: phantom,
+                into: boat
+            }]
+        );
+        assert_eq!(ids(&f, 15.0), vec![boat]);
+    }
+
+    #[test]
     fn a_drone_merge_merges_the_fused_tracks() {
         let mut f = Fuser::new(FuseParams::default());
         // Drone 1 sees a swimmer as track 3 and loses it; its new track 8, 25 m on (too far
@@ -952,6 +1097,9 @@ mod tests {
         r.provisional = false;
         assert!(f.observe(&r));
         assert!(!f.observe(&report(1, 1, 1, 4.0, 3.0, 0.0, 2.0)));
+        // A clock mapped anew (minutes back) is not a late report.
+        assert!(f.observe(&report(1, 1, 1, -300.0, 0.0, 0.0, 2.0)));
+        assert!(f.observe(&report(1, 1, 1, 5.0, 0.0, 0.0, 2.0)));
         let mut bad = report(1, 2, 1, 5.0, 0.0, 0.0, 2.0);
         bad.lat_deg = f64::NAN;
         assert!(!f.observe(&bad));

@@ -35,4 +35,4 @@ pub use clock::ClockAlign;
 pub use fuser::{
     FuseParams, FusedMember, FusedTrack, FusedTrackState, Fuser, MemberKey, Report, Retired,
 };
-pub use score::{score_picture, FusedScore, PictureSample, ScoreParams, TruthObject};
+pub use score::{match_sample, score_picture, FusedScore, PictureSample, ScoreParams, TruthObject};

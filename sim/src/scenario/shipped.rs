@@ -68,6 +68,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "two_drones",
         include_str!("../../scenarios/two_drones.toml"),
     ),
+    (
+        "two_drones_abreast",
+        include_str!("../../scenarios/two_drones_abreast.toml"),
+    ),
 ];
 
 #[cfg(test)]

@@ -1,0 +1,261 @@
+//! The fused picture as Cursor-on-Target: one event per fused track (uid
+//! `mgmot.ground.<run tag>.<fused id>`, `how="m-f"`: machine, fused), the end of every fused
+//! id a merge retired, and optionally the drones. Pure: times come in, events go out.
+
+use crate::cot::event::{delete_xml, event_xml, Detail, Envelope, Point, UNKNOWN};
+use crate::cot::{CotMessage, TypesByClass, VEHICLE_TYPE};
+use mgmot_core::digest::class_name;
+use mgmot_core::fuse::{FusedTrack, FusedTrackState, Retired};
+
+use super::ingest::Drone;
+
+/// The ground's CoT settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroundCotSettings {
+    /// How long an event stays valid (µs).
+    pub stale_us: i64,
+    /// Between two events of one track (µs).
+    pub every_us: i64,
+    /// CoT type by class.
+    pub types: TypesByClass,
+    /// The ground's callsign.
+    pub callsign: String,
+    /// A tag of this run, so ids from before a restart are not reused.
+    pub run_tag: String,
+    /// Also send the drones.
+    pub drones: bool,
+}
+
+/// Turns pictures into events.
+#[derive(Debug)]
+pub struct GroundCot {
+    settings: GroundCotSettings,
+    last_sent_us: Option<i64>,
+}
+
+impl GroundCot {
+    /// Nothing sent yet.
+    pub fn new(settings: GroundCotSettings) -> Self {
+        Self {
+            settings,
+            last_sent_us: None,
+        }
+    }
+
+    /// The ground's own uid: `mgmot.ground.<run tag>`.
+    pub fn ground_uid(&self) -> String {
+        format!("mgmot.ground.{}", self.settings.run_tag)
+    }
+
+    /// The uid of fused track `id`.
+    pub fn track_uid(&self, id: u64) -> String {
+        format!("{}.{id}", self.ground_uid())
+    }
+
+    /// The ground's identity event (the first of every stream connection; stale at once).
+    pub fn identity(&self, now_us: i64) -> CotMessage {
+        let uid = self.ground_uid();
+        let detail = Detail::new()
+            .element(
+                "contact",
+                &[("callsign", Some(self.settings.callsign.clone()))],
+            )
+            .element("mgmot", &[("role", Some("ground".to_owned()))])
+            .into_xml();
+        let xml = event_xml(
+            &Envelope {
+                uid: &uid,
+                cot_type: "a-f-G-U-C",
+                how: "m-g",
+                time_us: now_us,
+                start_us: now_us,
+                stale_us: now_us,
+                point: Point::unknown(),
+            },
+            &detail,
+        );
+        CotMessage {
+            uid: uid.into(),
+            xml: xml.into(),
+        }
+    }
+
+    /// The events due at `now_us` (UTC µs): ends of retired ids at once, and every track
+    /// and drone once per `every_us`.
+    pub fn events<'a>(
+        &mut self,
+        tracks: &[FusedTrack],
+        retired: &[Retired],
+        drones: impl Iterator<Item = &'a Drone>,
+        now_us: i64,
+    ) -> Vec<CotMessage> {
+        let mut out = Vec::new();
+        for r in retired {
+            let uid = self.track_uid(r.id);
+            let into = self.track_uid(r.into);
+            let detail = Detail::new()
+                .element(
+                    "mgmot",
+                    &[
+                        ("state", Some("retired".to_owned())),
+                        ("merged_into", Some(into)),
+                    ],
+                )
+                .into_xml();
+            let xml = event_xml(
+                &Envelope {
+                    uid: &uid,
+                    cot_type: &self.settings.types[0],
+                    how: "m-f",
+                    time_us: now_us,
+                    start_us: now_us,
+                    stale_us: now_us,
+                    point: Point::unknown(),
+                },
+                &detail,
+            );
+            out.push(CotMessage {
+                uid: uid.clone().into(),
+                xml: xml.into(),
+            });
+            out.push(CotMessage {
+                uid: uid.clone().into(),
+                xml: delete_xml(&uid, &self.ground_uid(), now_us).into(),
+            });
+        }
+        let due = self
+            .last_sent_us
+            .is_none_or(|t| now_us - t >= self.settings.every_us);
+        if !due && retired.is_empty() {
+            return out;
+        }
+        if due {
+            self.last_sent_us = Some(now_us);
+            out.extend(tracks.iter().map(|t| self.track(t, now_us)));
+            if self.settings.drones {
+                out.extend(drones.filter_map(|d| self.drone(d, now_us)));
+            }
+        }
+        out
+    }
+
+    fn track(&self, t: &FusedTrack, now_us: i64) -> CotMessage {
+        let uid = self.track_uid(t.id);
+        let class = class_name(t.class_id);
+        let members = t
+            .members
+            .iter()
+            .map(|m| format!("{}:{}", m.system_id, m.track_id))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let last_seen_us = t.last_seen_s.map(|s| (s * 1e6) as i64);
+        let speed = t.vel_ne_m_s.norm();
+        let course = t
+            .vel_ne_m_s
+            .y
+            .atan2(t.vel_ne_m_s.x)
+            .to_degrees()
+            .rem_euclid(360.0);
+        let detail = Detail::new()
+            .element(
+                "contact",
+                &[("callsign", Some(format!("{class} #{}", t.id)))],
+            )
+            .element(
+                "mgmot",
+                &[
+                    ("class", Some(class.to_owned())),
+                    ("class_id", Some(t.class_id.to_string())),
+                    (
+                        "state",
+                        Some(match t.state {
+                            FusedTrackState::Tracked => "tracked".to_owned(),
+                            FusedTrackState::Lost => "lost".to_owned(),
+                        }),
+                    ),
+                    ("fused_id", Some(t.id.to_string())),
+                    ("members", Some(members)),
+                    (
+                        "last_seen",
+                        last_seen_us.map(crate::cot::event::format_time),
+                    ),
+                ],
+            )
+            .element(
+                "track",
+                &[
+                    ("course", Some(format!("{course:.1}"))),
+                    ("speed", Some(format!("{speed:.2}"))),
+                ],
+            )
+            .into_xml();
+        let types = &self.settings.types;
+        let cot_type = types.get(t.class_id as usize).unwrap_or(&types[0]);
+        let xml = event_xml(
+            &Envelope {
+                uid: &uid,
+                cot_type,
+                how: "m-f",
+                time_us: now_us,
+                start_us: last_seen_us.unwrap_or(now_us).min(now_us),
+                stale_us: now_us + self.settings.stale_us,
+                point: Point {
+                    lat_deg: t.lat_deg,
+                    lon_deg: t.lon_deg,
+                    hae_m: UNKNOWN,
+                    ce_m: t.ce95_m,
+                    le_m: UNKNOWN,
+                },
+            },
+            &detail,
+        );
+        CotMessage {
+            uid: uid.into(),
+            xml: xml.into(),
+        }
+    }
+
+    fn drone(&self, d: &Drone, now_us: i64) -> Option<CotMessage> {
+        let (lat, lon) = d.position?;
+        let uid = format!("{}.drone.{}", self.ground_uid(), d.system_id);
+        let detail = Detail::new()
+            .element(
+                "contact",
+                &[("callsign", Some(format!("drone {}", d.system_id)))],
+            )
+            .element(
+                "track",
+                &[("course", d.heading_deg.map(|h| format!("{h:.1}")))],
+            )
+            .element(
+                "mgmot",
+                &[
+                    ("role", Some("vehicle".to_owned())),
+                    ("system_id", Some(d.system_id.to_string())),
+                ],
+            )
+            .into_xml();
+        let xml = event_xml(
+            &Envelope {
+                uid: &uid,
+                cot_type: VEHICLE_TYPE,
+                how: "m-g",
+                time_us: now_us,
+                start_us: now_us,
+                stale_us: now_us + self.settings.stale_us,
+                point: Point {
+                    lat_deg: lat,
+                    lon_deg: lon,
+                    hae_m: UNKNOWN,
+                    ce_m: UNKNOWN,
+                    le_m: UNKNOWN,
+                },
+            },
+            &detail,
+        );
+        Some(CotMessage {
+            uid: uid.into(),
+            xml: xml.into(),
+        })
+    }
+}
