@@ -31,6 +31,8 @@ pub struct GroundCotSettings {
 pub struct GroundCot {
     settings: GroundCotSettings,
     last_sent_us: Option<i64>,
+    /// The class each fused id was last sent as: a uid keeps one CoT type to its end.
+    sent_class: std::collections::HashMap<u64, u32>,
 }
 
 impl GroundCot {
@@ -39,6 +41,7 @@ impl GroundCot {
         Self {
             settings,
             last_sent_us: None,
+            sent_class: std::collections::HashMap::new(),
         }
     }
 
@@ -80,8 +83,9 @@ impl GroundCot {
         }
     }
 
-    /// The events due at `now_us` (UTC µs): ends of retired ids at once, and every track
-    /// and drone once per `every_us`.
+    /// The events due at `now_us` (UTC µs): ends of retired ids at once (as the type they
+    /// were last sent as; an id never sent needs no end), and every track and drone once per
+    /// `every_us`.
     pub fn events<'a>(
         &mut self,
         tracks: &[FusedTrack],
@@ -92,6 +96,11 @@ impl GroundCot {
         let mut out = Vec::new();
         for r in retired {
             let uid = self.track_uid(r.id);
+            let Some(class_id) = self.sent_class.remove(&r.id) else {
+                continue; // never sent: nothing to end on the map
+            };
+            let types = &self.settings.types;
+            let cot_type = types.get(class_id as usize).unwrap_or(&types[0]);
             let into = self.track_uid(r.into);
             let detail = Detail::new()
                 .element(
@@ -105,7 +114,7 @@ impl GroundCot {
             let xml = event_xml(
                 &Envelope {
                     uid: &uid,
-                    cot_type: &self.settings.types[0],
+                    cot_type,
                     how: "m-f",
                     time_us: now_us,
                     start_us: now_us,
@@ -131,7 +140,10 @@ impl GroundCot {
         }
         if due {
             self.last_sent_us = Some(now_us);
-            out.extend(tracks.iter().map(|t| self.track(t, now_us)));
+            for t in tracks {
+                self.sent_class.insert(t.id, t.class_id);
+                out.push(self.track(t, now_us));
+            }
             if self.settings.drones {
                 out.extend(drones.filter_map(|d| self.drone(d, now_us)));
             }
@@ -257,5 +269,57 @@ impl GroundCot {
             uid: uid.into(),
             xml: xml.into(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mgmot_core::fuse::FusedMember;
+    use nalgebra::{Matrix2, Vector2};
+
+    fn track(id: u64, class_id: u32) -> FusedTrack {
+        FusedTrack {
+            id,
+            class_id,
+            state: FusedTrackState::Tracked,
+            lat_deg: 54.18,
+            lon_deg: 7.89,
+            cov_m2: Matrix2::identity(),
+            ce95_m: 2.4,
+            vel_ne_m_s: Vector2::zeros(),
+            last_seen_s: Some(1.0),
+            members: vec![FusedMember {
+                system_id: 1,
+                track_id: 12,
+                live: true,
+                tracked: true,
+            }],
+            merged_from: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_retired_id_ends_as_the_type_it_was_sent_as() {
+        let mut c = GroundCot::new(GroundCotSettings {
+            stale_us: 60_000_000,
+            every_us: 1_000_000,
+            types: crate::cot::default_types(),
+            callsign: "ground".into(),
+            run_tag: "T".into(),
+            drones: false,
+        });
+        let sent = c.events(&[track(3, 2), track(4, 2)], &[], std::iter::empty(), 0);
+        assert_eq!(sent.len(), 2);
+        assert!(
+            sent[0].xml.contains("uid=\"mgmot.ground.T.3\"") && sent[0].xml.contains("how=\"m-f\"")
+        );
+        assert!(sent[0].xml.contains("members=\"1:12\""));
+        // 4 merged into 3 (sent), 9 into 3 (never sent: nothing to end).
+        let retired = [Retired { id: 4, into: 3 }, Retired { id: 9, into: 3 }];
+        let out = c.events(&[track(3, 2)], &retired, std::iter::empty(), 500_000);
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert!(out[0].xml.contains("type=\"a-n-S-X\"") && out[0].xml.contains("merged_into"));
+        assert!(out[1].xml.contains("t-x-d-d"));
     }
 }
