@@ -114,7 +114,7 @@ pub fn miss_probability(det: &Detector, size_px: f64, visibility: f64) -> f64 {
 pub fn detect(world: &World, optics: &Optics, ft: &FrameTruth) -> Vec<Detection> {
     let det = &world.scenario.detector;
     let mut rng = ChaCha8Rng::seed_from_u64(world.seed);
-    rng.set_stream(STREAM_DETECTIONS + ft.index);
+    rng.set_stream(world.scenario.vehicle_stream(STREAM_DETECTIONS + ft.index));
     let (w_img, h_img) = (
         f64::from(world.scenario.camera.width_px),
         f64::from(world.scenario.camera.height_px),

@@ -416,7 +416,7 @@ impl GimbalProgram {
     fn new(scenario: &Scenario, seed: u64) -> GimbalProgram {
         let g = &scenario.gimbal;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(STREAM_GIMBAL);
+        rng.set_stream(scenario.vehicle_stream(STREAM_GIMBAL));
         GimbalProgram {
             mode: g.mode,
             pitch_deg: g.pitch_deg,

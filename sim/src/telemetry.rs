@@ -119,7 +119,7 @@ impl Scheduler {
     /// Default rates; first messages at small staggered offsets.
     pub fn new(world: &World) -> Scheduler {
         let mut rng = ChaCha8Rng::seed_from_u64(world.seed);
-        rng.set_stream(STREAM_JITTER);
+        rng.set_stream(world.scenario.vehicle_stream(STREAM_JITTER));
         let kind = world.scenario.telemetry.autopilot;
         let mut reboots = world.scenario.faults.reboots_s.clone();
         reboots.sort_by(f64::total_cmp);

@@ -57,7 +57,7 @@ impl World {
         let n = ((scenario.duration_s + 2.0) / DRONE_DT_S).ceil() as usize + 1;
         let f = &scenario.faults;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(STREAM_FAULTS);
+        rng.set_stream(scenario.vehicle_stream(STREAM_FAULTS));
         let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
         let phi = (-DRONE_DT_S / GPS_CORRELATION_S).exp();
         let drive = (1.0 - phi * phi).sqrt();

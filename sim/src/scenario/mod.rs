@@ -126,6 +126,13 @@ pub struct Scenario {
     /// `drone`); [`Scenario::for_vehicle`].
     #[serde(default)]
     pub vehicles: Vec<Vehicle>,
+    /// Which of the scenario's vehicles this is (0: the top-level drone), set by
+    /// [`Scenario::for_vehicle`]: each vehicle's own random processes (its telemetry's
+    /// faults and jitter, its gimbal program, its detector's noise) draw from streams of
+    /// their own ([`Scenario::vehicle_stream`]), as two real drones' GNSS receivers and
+    /// cameras err independently.
+    #[serde(skip)]
+    pub vehicle: usize,
 }
 
 /// One more drone of a scenario with several ([`Scenario::vehicles`]).
@@ -816,7 +823,14 @@ impl Scenario {
             s.camera = c.clone();
         }
         s.telemetry.system_id = v.system_id;
+        s.vehicle = k;
         Ok(s)
+    }
+
+    /// The random stream `stream` as this vehicle draws it: the stream itself for vehicle 0
+    /// (so a one-drone scenario is unchanged), a stream of its own for each other vehicle.
+    pub fn vehicle_stream(&self, stream: u64) -> u64 {
+        stream ^ ((self.vehicle as u64) << 48)
     }
 
     /// Number of frames in the scenario.

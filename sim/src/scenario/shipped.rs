@@ -104,6 +104,22 @@ mod tests {
             }
             let (da, db) = (worlds[0].truth(t), worlds[1].truth(t));
             assert_ne!(da.pos_ned_m, db.pos_ned_m, "different drones at {t} s");
+            // Each drone's GNSS errs on its own: the reported-minus-true offsets differ.
+            let (ra, rb) = (worlds[0].reported(t), worlds[1].reported(t));
+            let err = |r: [f64; 3], d: [f64; 3]| [r[0] - d[0], r[1] - d[1]];
+            let (ea, eb) = (
+                err(ra.pos_ned_m, da.pos_ned_m),
+                err(rb.pos_ned_m, db.pos_ned_m),
+            );
+            assert!(
+                (ea[0] - eb[0]).hypot(ea[1] - eb[1]) > 1e-3,
+                "same GPS error at {t} s: {ea:?} {eb:?}"
+            );
+        }
+        // Vehicle 0 draws as the scenario alone does (a one-drone flight is unchanged).
+        let alone = World::new(s.clone(), s.seed);
+        for t in [0.0, 60.0] {
+            assert_eq!(alone.reported(t).pos_ned_m, worlds[0].reported(t).pos_ned_m);
         }
         let seen: Vec<BTreeSet<u32>> = worlds
             .iter()
