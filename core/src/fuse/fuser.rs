@@ -230,9 +230,13 @@ impl Member {
         let dt = (now_s - self.time_s).max(0.0);
         // A drone's velocity of a swimmer is mostly its filter's noise: extrapolating with
         // it adds error. Only a clearly moving object (a boat under way) is carried forward.
+        // So is that of a track seen for only a few seconds (see `Fuser::predict`).
+        let measured = self
+            .last_seen_s
+            .is_some_and(|seen| seen - self.first_s >= p.drift_min_age_s);
         let vel = self
             .vel
-            .filter(|v| v.norm() >= p.min_extrapolation_speed_m_s)
+            .filter(|v| measured && v.norm() >= p.min_extrapolation_speed_m_s)
             .unwrap_or_else(Vector2::zeros);
         let pos = self.pos + vel * dt;
         (pos, self.var + p.own_motion_m2_s * dt)
@@ -248,6 +252,8 @@ struct Fused {
     cov: Matrix2<f64>,
     vel: Vector2<f64>,
     est_time_s: f64,
+    /// When a drone first and last saw it (s): how long its own velocity was measured.
+    first_seen_s: Option<f64>,
     last_seen_s: Option<f64>,
     merged_from: Vec<u64>,
 }
@@ -368,9 +374,10 @@ impl Fuser {
     }
 
     /// A drone track reported again after a gap (not live) far outside the gate of its fused
-    /// track leaves it and is associated anew: the drone's long-term ReID took it for the
-    /// object that fused track follows, the ground's picture says otherwise (a real
-    /// re-acquisition lands where the fused track, carried with the drift, predicts).
+    /// track leaves it and is associated anew when the ground's picture says otherwise: another
+    /// drone sees the fused track's object now, or another fused track is where the drone put
+    /// it (the drone's long-term ReID took it for the wrong object). Otherwise the fused track
+    /// follows it (the object moved more than the drift says).
     fn check_reacquired(&mut self, key: MemberKey, pos: Vector2<f64>, var: f64, time_s: f64) {
         let Some(m) = self.members.get(&key) else {
             return;
@@ -381,11 +388,28 @@ impl Fuser {
         let Some(f) = self.fused.get(&fid) else {
             return;
         };
+        let me = (pos, Matrix2::identity() * var);
         let p = self.predict(f, time_s);
-        if self
-            .gated((pos, Matrix2::identity() * var), (p.pos, p.cov))
-            .is_some()
-        {
+        if self.gated(me, (p.pos, p.cov)).is_some() {
+            return;
+        }
+        // Nobody says otherwise (no other drone sees the fused track's object now, and no
+        // other fused track is where the drone put it): the fused track follows the drone's
+        // ReID, which knows more of that track's past than the drift does.
+        let contradicted = f
+            .members
+            .iter()
+            .any(|k| k.0 != key.0 && self.members.get(k).is_some_and(|o| self.is_live(o, time_s)));
+        let lands_elsewhere = || {
+            let single = BTreeSet::from([key]);
+            self.fused.iter().any(|(id, g)| {
+                *id != fid && g.class_id == m.class_id && self.compatible(&single, &g.members) && {
+                    let q = self.predict(g, time_s);
+                    self.gated(me, (q.pos, q.cov)).is_some()
+                }
+            })
+        };
+        if !contradicted && !lands_elsewhere() {
             return;
         }
         if let Some(m) = self.members.get_mut(&key) {
@@ -477,6 +501,10 @@ impl Fuser {
             f.merged_from.push(gone);
             f.merged_from.extend(g.merged_from.iter().copied());
             f.last_seen_s = later(f.last_seen_s, g.last_seen_s);
+            f.first_seen_s = match (f.first_seen_s, g.first_seen_s) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
         }
         self.close.retain(|(x, y), _| *x != gone && *y != gone);
         self.retired.push(Retired {
@@ -555,10 +583,21 @@ impl Fuser {
                 };
             }
         }
-        // Nobody sees it: carry it with the drift of its class (or, before there is one, its
-        // own velocity for at most own_motion_max_s).
+        // Nobody sees it: carry it with the drift of its class; before there is one, with its
+        // own velocity for at most own_motion_max_s, if that was measured long enough to mean
+        // something (a drone's velocity of a track seen for a few seconds is mostly its own
+        // geolocation error changing as it flies: seen carrying a still boat 60 m off).
         let dt = (now_s - f.est_time_s).max(0.0);
+        let measured = f
+            .first_seen_s
+            .zip(f.last_seen_s)
+            .is_some_and(|(a, b)| b - a >= p.drift_min_age_s);
         let own_dt = dt.min(p.own_motion_max_s);
+        let own_vel = if measured && f.vel.norm() >= p.min_extrapolation_speed_m_s {
+            f.vel
+        } else {
+            Vector2::zeros()
+        };
         let (pos, cov, vel) = match self.drift.estimate(f.class_id) {
             Some(d) => (
                 f.pos + d.vel_ne_m_s * dt,
@@ -566,9 +605,9 @@ impl Fuser {
                 d.vel_ne_m_s,
             ),
             None => (
-                f.pos + f.vel * own_dt,
+                f.pos + own_vel * own_dt,
                 f.cov + Matrix2::identity() * p.own_motion_m2_s * own_dt,
-                f.vel,
+                own_vel,
             ),
         };
         Prediction {
@@ -689,6 +728,7 @@ impl Fuser {
                 cov: Matrix2::identity() * var,
                 vel: m.vel.unwrap_or_else(Vector2::zeros),
                 est_time_s: now_s,
+                first_seen_s: m.last_seen_s,
                 last_seen_s: m.last_seen_s,
                 merged_from: Vec::new(),
             },
@@ -717,6 +757,9 @@ impl Fuser {
                 f.vel = p.vel;
                 f.est_time_s = now_s;
                 f.last_seen_s = seen;
+                if f.first_seen_s.is_none() {
+                    f.first_seen_s = seen;
+                }
             }
         }
     }
@@ -1009,6 +1052,66 @@ mod tests {
             }]
         );
         assert_eq!(ids(&f, 15.0), vec![boat]);
+    }
+
+    #[test]
+    fn a_drone_track_reacquired_far_away_where_nobody_else_is_keeps_its_fused_id() {
+        let mut f = Fuser::new(FuseParams::default());
+        // Drone 2 sees a swimmer for 5 s, then loses it for 40 s; its ReID brings track 5
+        // back 40 m on (the swimmer moved more than the drift says). No other drone sees it
+        // and nothing else is there: the fused id follows the drone's track.
+        for k in 0..5 {
+            f.observe(&report(2, 5, 1, f64::from(k), 0.0, 0.0, 1.0));
+            f.step(f64::from(k));
+        }
+        let id = f.fused_id_of(2, 5).unwrap();
+        for k in 5..45 {
+            f.step(f64::from(k));
+        }
+        f.observe(&report(2, 5, 1, 45.0, 40.0, 0.0, 1.0));
+        f.step(45.0);
+        assert_eq!(f.fused_id_of(2, 5), Some(id));
+        assert!(f.take_retired().is_empty());
+        let p = f.picture(45.0);
+        assert_eq!(p.len(), 1);
+        assert_eq!(p[0].state, FusedTrackState::Tracked);
+        // ... and a later track of drone 1 there joins that id.
+        f.observe(&report(1, 9, 1, 46.0, 40.3, 0.2, 1.0));
+        f.observe(&report(2, 5, 1, 46.0, 40.0, 0.0, 1.0));
+        f.step(46.0);
+        assert_eq!(f.fused_id_of(1, 9), Some(id));
+    }
+
+    #[test]
+    fn a_lost_track_is_carried_with_its_own_velocity_only_when_it_was_measured_long_enough() {
+        // North of each track's start at `t`, in the picture.
+        fn north_at(f: &Fuser, id: u64, t: f64) -> f64 {
+            let p = f.picture(t).into_iter().find(|p| p.id == id).unwrap();
+            let (lat0, _) = at(0.0, 0.0);
+            (p.lat_deg - lat0) * 111_320.0
+        }
+        let mut f = Fuser::new(FuseParams::default());
+        // A still boat whose drone track "moved" 2 m/s for 3 s (the drone's geolocation error
+        // changing as it flew), and a jetski under way at 3 m/s for 10 s, 200 m apart.
+        for k in 0..=10 {
+            let t = f64::from(k);
+            if k <= 3 {
+                let mut r = report(1, 1, 2, t, 2.0 * t, 0.0, 1.0);
+                r.vel_ne_m_s = Some(Vector2::new(2.0, 0.0));
+                f.observe(&r);
+            }
+            let mut r = report(1, 2, 3, t, 3.0 * t, 200.0, 1.0);
+            r.vel_ne_m_s = Some(Vector2::new(3.0, 0.0));
+            f.observe(&r);
+            f.step(t);
+        }
+        let (still, under_way) = (f.fused_id_of(1, 1).unwrap(), f.fused_id_of(1, 2).unwrap());
+        for k in 11..=40 {
+            f.step(f64::from(k));
+        }
+        // Lost for 30 s: the still boat stays where last seen; the other is carried on.
+        assert!((north_at(&f, still, 40.0) - 6.0).abs() < 1.0);
+        assert!((north_at(&f, under_way, 40.0) - 120.0).abs() < 2.0);
     }
 
     #[test]
