@@ -2,12 +2,14 @@
 """Checks the live map page of `mgmot ground` in Debian's headless Chromium.
 
 Usage: ground_map_check.py --url http://127.0.0.1:PORT/ --min-tracks N [--min-drones M]
-                           [--chromium PATH] [--wait-ms 6000] [--save-dom FILE]
+                           [--min-footprints F] [--chromium PATH] [--wait-ms 6000]
+                           [--save-dom FILE]
 
 Chromium loads the page with a fresh profile and a virtual time budget (the page's 1 s polls
 run in virtual time: 6000 ms gives about six of them, in a second or two of real time), then
 dumps the DOM. The checks: <body data-updates> >= 1 (the page drew tracks.geojson at least
-once), at least N <g class="track"> and M <g class="drone">, and no console error.
+once), at least N <g class="track">, M <g class="drone"> and F <polygon class="footprint">,
+and no console error.
 
 Console messages: Chromium 156 logs them on stderr (with --enable-logging=stderr) as
     [PID:TID:MMDD/HHMMSS.UUUUUU:INFO:CONSOLE:LINE] "MESSAGE", source: URL (LINE)
@@ -132,6 +134,8 @@ def main():
     ap.add_argument("--url", required=True, help="the page, e.g. http://127.0.0.1:8080/")
     ap.add_argument("--min-tracks", type=int, required=True, help="at least this many g.track")
     ap.add_argument("--min-drones", type=int, default=0, help="at least this many g.drone")
+    ap.add_argument("--min-footprints", type=int, default=0,
+                    help="at least this many polygon.footprint (camera footprints)")
     ap.add_argument("--chromium", default="chromium", help="the Chromium binary (default: chromium on PATH)")
     ap.add_argument("--wait-ms", type=int, default=6000, help="virtual time the page runs before the dump")
     ap.add_argument("--save-dom", help="also write the dumped DOM to this file")
@@ -175,6 +179,8 @@ def main():
         problems.append(f"{parsed.tracks} g.track, fewer than {args.min_tracks}")
     if parsed.drones < args.min_drones:
         problems.append(f"{parsed.drones} g.drone, fewer than {args.min_drones}")
+    if parsed.footprints < args.min_footprints:
+        problems.append(f"{parsed.footprints} polygon.footprint, fewer than {args.min_footprints}")
     if errors:
         problems.append(f"{len(errors)} console error(s)")
     if rc != 0 and not dom.strip():

@@ -47,46 +47,66 @@ fn class_id(name: &str) -> u32 {
         .map_or(0, |i| i as u32)
 }
 
-/// The truth by sim time (ms).
-fn truth_by_time(truth: &[Truth]) -> BTreeMap<i64, Vec<TruthObject>> {
-    let mut by: BTreeMap<i64, Vec<TruthObject>> = BTreeMap::new();
-    for t in truth {
-        by.entry(t.t_ms).or_default().push(TruthObject {
-            id: t.id,
-            class_id: class_id(&t.class),
-            pos_ne_m: ne(t.lat, t.lon),
-            counts: true,
-        });
-    }
-    by
+/// The world's truth, object by object: each drone's `world.csv` lists the objects in its
+/// view, frame by frame; together they say where each object was while either drone saw it.
+struct WorldTruth {
+    /// Object id -> sim time (ms) -> its row.
+    objects: BTreeMap<u64, BTreeMap<i64, TruthRow>>,
 }
 
-/// The truth nearest sim time `t_ms` (within 40 ms); with `only`, the others do not count
-/// (they are still matched, so their tracks are not taken for a neighbour's).
-fn truth_at(
-    by: &BTreeMap<i64, Vec<TruthObject>>,
-    t_ms: i64,
-    only: Option<&BTreeSet<u64>>,
-) -> Option<Vec<TruthObject>> {
-    let (at, objects) = by
-        .range(t_ms - 40..=t_ms + 40)
-        .min_by_key(|(k, _)| (**k - t_ms).abs())?;
-    let _ = at;
-    Some(
-        objects
-            .iter()
-            .map(|o| TruthObject {
-                counts: only.is_none_or(|s| s.contains(&o.id)),
-                ..*o
+/// An object in one frame's truth: class id, position north/east (m), velocity (m/s).
+type TruthRow = (u32, Vector2<f64>, Vector2<f64>);
+
+/// How far (ms) from a row the truth of an object is carried with its velocity: the picture
+/// keeps an object that just left both views, and the truth must too.
+const TRUTH_CARRY_MS: i64 = 5_000;
+
+fn world_truth(per_drone: &[Vec<Truth>]) -> WorldTruth {
+    let mut objects: BTreeMap<u64, BTreeMap<i64, _>> = BTreeMap::new();
+    for t in per_drone.iter().flatten() {
+        objects.entry(t.id).or_default().insert(
+            t.t_ms,
+            (
+                class_id(&t.class),
+                ne(t.lat, t.lon),
+                Vector2::new(t.vel_ne.0, t.vel_ne.1),
+            ),
+        );
+    }
+    WorldTruth { objects }
+}
+
+/// Where every object was at sim time `t_ms`: its nearest row within [`TRUTH_CARRY_MS`],
+/// carried to `t_ms` with its velocity; with `only`, the others do not count (they are still
+/// matched, so their tracks are not taken for a neighbour's). `None` when no object is near
+/// that time.
+fn truth_at(w: &WorldTruth, t_ms: i64, only: Option<&BTreeSet<u64>>) -> Option<Vec<TruthObject>> {
+    let objects: Vec<TruthObject> = w
+        .objects
+        .iter()
+        .filter_map(|(id, rows)| {
+            let before = rows.range(..=t_ms).next_back();
+            let after = rows.range(t_ms..).next();
+            let (at, (class_id, pos, vel)) = [before, after]
+                .into_iter()
+                .flatten()
+                .min_by_key(|(k, _)| (**k - t_ms).abs())?;
+            let dt_ms = t_ms - at;
+            (dt_ms.abs() <= TRUTH_CARRY_MS).then(|| TruthObject {
+                id: *id,
+                class_id: *class_id,
+                pos_ne_m: pos + vel * (dt_ms as f64 / 1000.0),
+                counts: only.is_none_or(|s| s.contains(id)),
             })
-            .collect(),
-    )
+        })
+        .collect();
+    (!objects.is_empty()).then_some(objects)
 }
 
 /// One drone's picture: its tracked, geolocated, settled MGMOT_TRACKs grouped by frame.
 fn drone_samples(
     sent: &[Sent],
-    by: &BTreeMap<i64, Vec<TruthObject>>,
+    by: &WorldTruth,
     only: Option<&BTreeSet<u64>>,
 ) -> Vec<(i64, PictureSample)> {
     let mut frames: BTreeMap<u64, Vec<(u64, u32, Vector2<f64>)>> = BTreeMap::new();
@@ -122,7 +142,7 @@ fn drone_samples(
 /// The fused picture's samples from the recording: its tracked fused tracks at each update.
 fn fused_samples(
     lines: &[serde_json::Value],
-    by: &BTreeMap<i64, Vec<TruthObject>>,
+    by: &WorldTruth,
     only: &BTreeSet<u64>,
 ) -> Vec<(i64, PictureSample)> {
     lines
@@ -319,6 +339,8 @@ fn fly(name: &str, duration_s: f64, map_check_at: Option<Duration>) -> Flown {
                 "1",
                 "--min-drones",
                 "2",
+                "--min-footprints",
+                "2",
                 "--chromium",
                 &chromium,
             ])
@@ -352,6 +374,13 @@ fn fly(name: &str, duration_s: f64, map_check_at: Option<Duration>) -> Flown {
         stats["ingest"]["track_reports_used"].as_u64().unwrap() > 100,
         "{stats}"
     );
+    // Each drone's mgmot run sent CAMERA_FOV_STATUS at 1 Hz, and each made a footprint.
+    let footprints = stats["ingest"]["footprints"].as_u64().unwrap();
+    assert!(
+        footprints as f64 >= 2.0 * duration_s * 0.8,
+        "{footprints} footprints in {duration_s} s: {stats}"
+    );
+    assert_eq!(stats["ingest"]["bad_footprints"], 0, "{stats}");
 
     Flown {
         dir,
@@ -373,8 +402,10 @@ struct Scores {
 fn score(f: &Flown) -> Scores {
     let (dir, sent, record) = (&f.dir, &f.sent, &f.record);
     // Scoring against the truth.
-    let truth = read_truth(&dir.join("truth0/world.csv"));
-    let by = truth_by_time(&truth);
+    let by = world_truth(&[
+        read_truth(&dir.join("truth0/world.csv")),
+        read_truth(&dir.join("truth1/world.csv")),
+    ]);
     let drones: Vec<Vec<(i64, PictureSample)>> =
         sent.iter().map(|s| drone_samples(s, &by, None)).collect();
     let seen: Vec<BTreeSet<u64>> = drones.iter().map(|d| seen_objects(d)).collect();
@@ -436,12 +467,92 @@ fn score(f: &Flown) -> Scores {
     Scores { paired, pictures }
 }
 
+/// Distance (m) from `p` to polygon `ring` (0 inside).
+fn outside_by(p: Vector2<f64>, ring: &[Vector2<f64>]) -> f64 {
+    let n = ring.len();
+    let mut inside = false;
+    let mut nearest = f64::MAX;
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
+            inside = !inside;
+        }
+        let ab = b - a;
+        let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-12)).clamp(0.0, 1.0);
+        nearest = nearest.min((a + ab * t - p).norm());
+    }
+    if inside {
+        0.0
+    } else {
+        nearest
+    }
+}
+
+/// The drones' camera footprints on the map (from their CAMERA_FOV_STATUS) hold what they
+/// see: in each recorded picture, a fused track seen within the last second, that a drone's
+/// track holds as seen, lies in that drone's footprint, give or take 15 m: what the drone flew
+/// since the footprint (1 Hz at 6.5 m/s) and since the sighting, and the geolocation error.
+/// A footprint in the wrong place (a quaternion convention mixed up) fails this.
+fn check_footprints(pictures: &[serde_json::Value]) {
+    let (mut pairs, mut near) = (0usize, 0usize);
+    for p in pictures {
+        let features = p["features"].as_array().unwrap();
+        let rings: BTreeMap<u64, Vec<Vector2<f64>>> = features
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "footprint")
+            .filter_map(|f| {
+                let ring = f["geometry"]["coordinates"][0].as_array()?;
+                Some((
+                    f["properties"]["system_id"].as_u64()?,
+                    ring.iter()
+                        .map(|c| ne(c[1].as_f64().unwrap(), c[0].as_f64().unwrap()))
+                        .collect(),
+                ))
+            })
+            .collect();
+        let now_ms = p["properties"]["time_unix_ms"].as_i64().unwrap();
+        let recent = |f: &&serde_json::Value| {
+            f["properties"]["last_seen_unix_ms"]
+                .as_i64()
+                .is_some_and(|seen| now_ms - seen <= 1000)
+        };
+        for f in features
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "track")
+            .filter(recent)
+        {
+            let c = f["geometry"]["coordinates"].as_array().unwrap();
+            let at = ne(c[1].as_f64().unwrap(), c[0].as_f64().unwrap());
+            for m in f["properties"]["members"].as_array().unwrap() {
+                if m["state"] != "tracked" {
+                    continue;
+                }
+                let Some(ring) = rings.get(&m["system_id"].as_u64().unwrap()) else {
+                    continue;
+                };
+                pairs += 1;
+                if outside_by(at, ring) <= 15.0 {
+                    near += 1;
+                }
+            }
+        }
+    }
+    eprintln!("footprints: {near} of {pairs} tracks seen in the last second in (or within 15 m of) their drone's footprint");
+    assert!(pairs >= 50, "only {pairs} seen tracks with a footprint");
+    assert!(
+        near as f64 >= 0.95 * pairs as f64,
+        "{} of {pairs} seen tracks lie outside their drone's footprint",
+        pairs - near
+    );
+}
+
 /// `two_drones`: the drones pass over the same water at different times. One fused id per
 /// object across both drones; the live map, the fused CoT and the review of the recording.
 #[test]
 fn two_drones_passing_at_different_times_keep_one_fused_id_per_object() {
     let f = fly("two_drones", 180.0, Some(Duration::from_secs(120)));
     let Scores { pictures, .. } = score(&f);
+    check_footprints(&pictures);
     let (dir, stats, record) = (&f.dir, &f.stats, &f.record);
     let cot_bytes = &f.cot_bytes;
     // The fused CoT stream passes the schema; every fused id of the picture was sent.
@@ -500,7 +611,7 @@ fn two_drones_passing_at_different_times_keep_one_fused_id_per_object() {
 #[test]
 fn two_drones_abreast_fuse_within_the_drones_errors() {
     let f = fly("two_drones_abreast", 90.0, None);
-    let Scores { paired, .. } = score(&f);
+    let Scores { paired, pictures } = score(&f);
     let n = paired[0].len();
     assert!(n >= 20, "only {n} moments with both drones on one object");
     let within = (0..n)
@@ -511,6 +622,7 @@ fn two_drones_abreast_fuse_within_the_drones_errors() {
         "both drones at once ({n} samples): fused median {:.2} p95 {:.2} m; drone 1 {:.2} / {:.2}; drone 2 {:.2} / {:.2}; fused within the worse drone's error + 0.25 m at {within} of {n}",
         fu.0, fu.1, d1.0, d1.1, d2.0, d2.1
     );
+    check_footprints(&pictures);
     assert!(
         within as f64 >= 0.9 * n as f64,
         "the fused position is outside the drones' errors at {} of {n} moments",

@@ -29,6 +29,10 @@ pub struct OutputsConfig {
     pub radio_digest_every_s: f64,
     /// Positions listed in each periodic digest (the most recently seen tracks).
     pub radio_digest_positions: usize,
+    /// CAMERA_FOV_STATUS per second: the camera's position, attitude and fields of view, from
+    /// which a ground station (QGroundControl's camera view, `mgmot ground`'s map) draws the
+    /// footprint on the sea. 0 turns it off.
+    pub camera_fov_hz: f64,
     /// Cursor-on-Target events for TAK maps (`[outputs.cot]`, off by default).
     pub cot: CotConfig,
 }
@@ -43,6 +47,7 @@ impl Default for OutputsConfig {
             track_point_radius: DEFAULT_POINT_RADIUS,
             radio_digest_every_s: 15.0,
             radio_digest_positions: 3,
+            camera_fov_hz: 1.0,
             cot: CotConfig::default(),
         }
     }
@@ -63,6 +68,8 @@ pub struct OutputSettings {
     pub track_point_radius: f64,
     /// The STATUSTEXT digest of the tracks; `None`: off.
     pub radio_digest: Option<DigestSettings>,
+    /// Between two CAMERA_FOV_STATUS messages; `None`: off.
+    pub camera_fov_every: Option<Duration>,
     /// Cursor-on-Target events; `None`: off.
     pub cot: Option<CotSettings>,
 }
@@ -112,6 +119,15 @@ impl OutputsConfig {
             "must be at most 20 (each is one STATUSTEXT on the radio)",
             self.radio_digest_positions,
         );
+        const FOV: &str = "outputs.camera_fov_hz";
+        let camera_fov_every = p
+            .check(
+                self.camera_fov_hz.is_finite() && (0.0..=50.0).contains(&self.camera_fov_hz),
+                FOV,
+                "must be 0 (off) to 50 per second",
+                self.camera_fov_hz,
+            )
+            .map(|hz| (hz > 0.0).then(|| Duration::from_secs_f64(1.0 / hz)));
         let cot = self.cot.validate(p);
         Some(OutputSettings {
             track_every: track_every?,
@@ -120,6 +136,7 @@ impl OutputsConfig {
             camera_tracking_every: camera_tracking_every?,
             track_point_radius: track_point_radius?,
             radio_digest: positions.and(radio_digest)?,
+            camera_fov_every: camera_fov_every?,
             cot: cot?,
         })
     }

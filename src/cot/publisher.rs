@@ -3,6 +3,7 @@
 //! vehicle itself. Pure: the clocks come in as numbers, events go out as [`CotMessage`]s.
 
 use super::event::{delete_xml, event_xml, Detail, Envelope, Point, UNKNOWN};
+use super::vehicle::{footprint_event, vehicle_event, VehicleFix, VehicleId};
 use crate::digest::class_name;
 use crate::report::TrackReport;
 use crate::track::MergeEvent;
@@ -66,19 +67,6 @@ pub struct CotClock {
     pub observed_unix_us: i64,
     /// Now, UTC (µs since the epoch).
     pub now_unix_us: i64,
-}
-
-/// The vehicle's own position, for its event.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VehicleFix {
-    /// Latitude, degrees.
-    pub lat_deg: f64,
-    /// Longitude, degrees.
-    pub lon_deg: f64,
-    /// Altitude above mean sea level (m).
-    pub alt_amsl_m: f64,
-    /// Heading (degrees, 0 north, clockwise).
-    pub heading_deg: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -223,59 +211,24 @@ impl CotPublisher {
         out
     }
 
-    /// The camera footprint as a TAK drawing (`u-d-f`, a closed line through `<link point>`s),
-    /// uid `<vehicle uid>.footprint`, at the ring's centroid.
+    fn vehicle_id<'a>(&'a self, uid: &'a str) -> VehicleId<'a> {
+        VehicleId {
+            uid,
+            callsign: &self.settings.callsign,
+            system_id: self.settings.system_id,
+        }
+    }
+
+    /// The camera footprint (see [`footprint_event`]).
     fn footprint_message(&self, ring: &[(f64, f64)], clock: CotClock) -> CotMessage {
-        let uid = format!("{}.footprint", self.vehicle_uid());
-        let n = ring.len() as f64;
-        let (lat, lon) = ring
-            .iter()
-            .fold((0.0, 0.0), |(a, b), (la, lo)| (a + la / n, b + lo / n));
-        let mut detail = Detail::new().element(
-            "contact",
-            &[(
-                "callsign",
-                Some(format!("{} camera", self.settings.callsign)),
-            )],
-        );
-        for (la, lo) in ring.iter().chain(ring.first()) {
-            detail = detail.element("link", &[("point", Some(format!("{la:.7},{lo:.7}")))]);
-        }
-        let detail = detail
-            .element("strokeColor", &[("value", Some("-256".to_owned()))])
-            .element("strokeWeight", &[("value", Some("2.0".to_owned()))])
-            .element("fillColor", &[("value", Some("436207360".to_owned()))])
-            .element("labels_on", &[("value", Some("false".to_owned()))])
-            .element(
-                "mgmot",
-                &[
-                    ("role", Some("footprint".to_owned())),
-                    ("system_id", Some(self.settings.system_id.to_string())),
-                ],
-            )
-            .into_xml();
-        let xml = event_xml(
-            &Envelope {
-                uid: &uid,
-                cot_type: "u-d-f",
-                how: "m-i",
-                time_us: clock.now_unix_us,
-                start_us: clock.observed_unix_us.min(clock.now_unix_us),
-                stale_us: clock.now_unix_us + self.settings.stale_us,
-                point: Point {
-                    lat_deg: lat,
-                    lon_deg: lon,
-                    hae_m: UNKNOWN,
-                    ce_m: UNKNOWN,
-                    le_m: UNKNOWN,
-                },
-            },
-            &detail,
-        );
-        CotMessage {
-            uid: uid.into(),
-            xml: xml.into(),
-        }
+        let uid = self.vehicle_uid();
+        footprint_event(
+            self.vehicle_id(&uid),
+            ring,
+            clock.observed_unix_us,
+            clock.now_unix_us,
+            self.settings.stale_us,
+        )
     }
 
     /// The vehicle's event at `now_unix_us`; without a fix it is an identity only (at 0, 0
@@ -283,60 +236,12 @@ impl CotPublisher {
     /// identity.
     pub fn vehicle_message(&self, fix: Option<&VehicleFix>, now_unix_us: i64) -> CotMessage {
         let uid = self.vehicle_uid();
-        let (point, stale) = match fix {
-            Some(f) => (
-                Point {
-                    lat_deg: f.lat_deg,
-                    lon_deg: f.lon_deg,
-                    hae_m: UNKNOWN,
-                    ce_m: UNKNOWN,
-                    le_m: UNKNOWN,
-                },
-                now_unix_us + self.settings.stale_us,
-            ),
-            None => (Point::unknown(), now_unix_us),
-        };
-        let mut detail = Detail::new()
-            .element(
-                "contact",
-                &[("callsign", Some(self.settings.callsign.clone()))],
-            )
-            .element(
-                "mgmot",
-                &[
-                    ("role", Some("vehicle".to_owned())),
-                    ("system_id", Some(self.settings.system_id.to_string())),
-                    ("alt_amsl", fix.map(|f| format!("{:.1}", f.alt_amsl_m))),
-                ],
-            );
-        if let Some(f) = fix {
-            detail = detail.element(
-                "track",
-                &[
-                    (
-                        "course",
-                        Some(format!("{:.1}", f.heading_deg.rem_euclid(360.0))),
-                    ),
-                    ("speed", Some("0.0".to_owned())),
-                ],
-            );
-        }
-        let xml = event_xml(
-            &Envelope {
-                uid: &uid,
-                cot_type: VEHICLE_TYPE,
-                how: "m-g",
-                time_us: now_unix_us,
-                start_us: now_unix_us,
-                stale_us: stale,
-                point,
-            },
-            &detail.into_xml(),
-        );
-        CotMessage {
-            uid: uid.into(),
-            xml: xml.into(),
-        }
+        vehicle_event(
+            self.vehicle_id(&uid),
+            fix,
+            now_unix_us,
+            self.settings.stale_us,
+        )
     }
 
     /// The common detail of a track's events; `extra` are more attributes of `<mgmot>`.
@@ -563,7 +468,7 @@ mod tests {
             lat_deg: 47.5,
             lon_deg: 9.25,
             alt_amsl_m: 60.0,
-            heading_deg: -90.0,
+            heading_deg: Some(-90.0),
         };
         let ring = [(47.5, 9.25), (47.5, 9.26), (47.49, 9.26), (47.49, 9.25)];
         assert_eq!(p.vehicle(&fix, &ring, clock(0.0)).len(), 2);

@@ -1,12 +1,14 @@
 //! The fused picture as Cursor-on-Target: one event per fused track (uid
 //! `mgmot.ground.<run tag>.<fused id>`, `how="m-f"`: machine, fused), the end of every fused
-//! id a merge retired, and optionally the drones. Pure: times come in, events go out.
+//! id a merge retired, and optionally the drones with their camera footprints. Pure: times come in, events go out.
 
 use crate::cot::event::{delete_xml, event_xml, Detail, Envelope, Point, UNKNOWN};
-use crate::cot::{CotMessage, TypesByClass, VEHICLE_TYPE};
+use crate::cot::vehicle::{footprint_event, vehicle_event, VehicleFix, VehicleId};
+use crate::cot::{CotMessage, TypesByClass};
 use mgmot_core::digest::class_name;
 use mgmot_core::fuse::{FusedTrack, FusedTrackState, Retired};
 
+use super::geojson::FOOTPRINT_STALE_S;
 use super::ingest::Drone;
 
 /// The ground's CoT settings.
@@ -145,7 +147,7 @@ impl GroundCot {
                 out.push(self.track(t, now_us));
             }
             if self.settings.drones {
-                out.extend(drones.filter_map(|d| self.drone(d, now_us)));
+                out.extend(drones.flat_map(|d| self.drone(d, now_us)));
             }
         }
         out
@@ -227,48 +229,43 @@ impl GroundCot {
         }
     }
 
-    fn drone(&self, d: &Drone, now_us: i64) -> Option<CotMessage> {
-        let (lat, lon) = d.position?;
+    /// A drone's event, and its camera footprint while fresh.
+    fn drone(&self, d: &Drone, now_us: i64) -> Vec<CotMessage> {
+        let Some((lat, lon)) = d.position else {
+            return Vec::new();
+        };
         let uid = format!("{}.drone.{}", self.ground_uid(), d.system_id);
-        let detail = Detail::new()
-            .element(
-                "contact",
-                &[("callsign", Some(format!("drone {}", d.system_id)))],
-            )
-            .element(
-                "track",
-                &[("course", d.heading_deg.map(|h| format!("{h:.1}")))],
-            )
-            .element(
-                "mgmot",
-                &[
-                    ("role", Some("vehicle".to_owned())),
-                    ("system_id", Some(d.system_id.to_string())),
-                ],
-            )
-            .into_xml();
-        let xml = event_xml(
-            &Envelope {
-                uid: &uid,
-                cot_type: VEHICLE_TYPE,
-                how: "m-g",
-                time_us: now_us,
-                start_us: now_us,
-                stale_us: now_us + self.settings.stale_us,
-                point: Point {
-                    lat_deg: lat,
-                    lon_deg: lon,
-                    hae_m: UNKNOWN,
-                    ce_m: UNKNOWN,
-                    le_m: UNKNOWN,
-                },
-            },
-            &detail,
-        );
-        Some(CotMessage {
-            uid: uid.into(),
-            xml: xml.into(),
-        })
+        let callsign = format!("drone {}", d.system_id);
+        let id = VehicleId {
+            uid: &uid,
+            callsign: &callsign,
+            system_id: d.system_id,
+        };
+        let fix = VehicleFix {
+            lat_deg: lat,
+            lon_deg: lon,
+            alt_amsl_m: d.alt_m,
+            heading_deg: d.heading_deg,
+        };
+        let mut out = vec![vehicle_event(
+            id,
+            Some(&fix),
+            now_us,
+            self.settings.stale_us,
+        )];
+        if let Some(at_s) = d.footprint_s.filter(|_| d.footprint.len() >= 3) {
+            let at_us = (at_s * 1e6) as i64;
+            if (now_us - at_us) as f64 <= FOOTPRINT_STALE_S * 1e6 {
+                out.push(footprint_event(
+                    id,
+                    &d.footprint,
+                    at_us,
+                    now_us,
+                    self.settings.stale_us,
+                ));
+            }
+        }
+        out
     }
 }
 

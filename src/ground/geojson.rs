@@ -1,5 +1,5 @@
-//! The picture as GeoJSON (RFC 7946): the fused tracks and the drones, what the live map
-//! draws, the file a GIS opens, and each line of the recording.
+//! The picture as GeoJSON (RFC 7946): the fused tracks, the drones and their cameras'
+//! footprints; what the live map draws, the file a GIS opens, and each line of the recording.
 
 use super::ingest::Drone;
 use mgmot_core::digest::class_name;
@@ -76,14 +76,54 @@ pub fn drone_feature(d: &Drone) -> Option<Value> {
     }))
 }
 
-/// The whole picture at fuser time `now_s` (the time the tracks were predicted to).
+/// A footprint older than this (s) is no longer drawn: the camera has moved on, or stopped
+/// telling where it looks.
+pub const FOOTPRINT_STALE_S: f64 = 10.0;
+
+/// One drone's camera footprint as a Polygon feature (`None` without a fresh one). Its
+/// arrival is on the ground's clock, `ground_s` now; `now_s` is the picture's time, which its
+/// `time_unix_ms` is given on.
+pub fn footprint_feature(d: &Drone, now_s: f64, ground_s: f64) -> Option<Value> {
+    let at = d.footprint_s?;
+    if d.footprint.len() < 3 || (ground_s - at).abs() > FOOTPRINT_STALE_S {
+        return None;
+    }
+    let mut ring: Vec<[f64; 2]> = d.footprint.iter().map(|&(lat, lon)| [lon, lat]).collect();
+    // RFC 7946: an exterior ring runs counterclockwise (positive shoelace area in lon, lat).
+    let twice_area: f64 = ring
+        .iter()
+        .zip(ring.iter().cycle().skip(1))
+        .map(|(a, b)| a[0] * b[1] - b[0] * a[1])
+        .sum();
+    if twice_area < 0.0 {
+        ring.reverse();
+    }
+    ring.push(ring[0]);
+    Some(json!({
+        "type": "Feature",
+        "id": format!("footprint-{}", d.system_id),
+        "geometry": {"type": "Polygon", "coordinates": [ring]},
+        "properties": {
+            "kind": "footprint",
+            "system_id": d.system_id,
+            "time_unix_ms": ms(at - ground_s + now_s),
+        }
+    }))
+}
+
+/// The whole picture at fuser time `now_s` (the time the tracks were predicted to), made at
+/// `ground_s` on the ground's clock.
 pub fn collection<'a>(
     now_s: f64,
+    ground_s: f64,
     tracks: &[FusedTrack],
     drones: impl Iterator<Item = &'a Drone>,
 ) -> Value {
     let mut features: Vec<Value> = tracks.iter().map(track_feature).collect();
-    features.extend(drones.filter_map(drone_feature));
+    for d in drones {
+        features.extend(footprint_feature(d, now_s, ground_s));
+        features.extend(drone_feature(d));
+    }
     json!({
         "type": "FeatureCollection",
         "properties": {

@@ -5,6 +5,8 @@
 //! - GLOBAL_POSITION_INT (from the autopilot component): where the drone is.
 //! - STATUSTEXT: mgmot's radio digest, used only for a vehicle from which no MGMOT_TRACK has
 //!   arrived (its autopilot's radio drops mgmot's own message).
+//! - CAMERA_FOV_STATUS (from any component of a vehicle: `mgmot run`, or a camera): the
+//!   camera's footprint on the sea, for the map.
 //! - HEARTBEAT: the vehicle exists.
 
 use super::config::InputConfig;
@@ -12,7 +14,8 @@ use crate::mavlink::dialect::{MavMessage, MgmotTrackFlags, MgmotTrackState};
 use mavlink_core::MavHeader;
 use mgmot_core::digest::parse_text;
 use mgmot_core::fuse::{ClockAlign, Fuser, Report};
-use nalgebra::Vector2;
+use mgmot_core::geo::{CameraView, Geodetic};
+use nalgebra::{Quaternion, UnitQuaternion, Vector2};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -33,6 +36,14 @@ pub struct Drone {
     pub track_messages: u64,
     /// Digest positions used from it.
     pub digest_positions: u64,
+    /// Its camera's footprint on the sea, a ring of (lat, lon) in degrees (empty before the
+    /// first CAMERA_FOV_STATUS, or while the camera sees no water).
+    pub footprint: Vec<(f64, f64)>,
+    /// When the footprint came (s, the ground's UTC clock).
+    pub footprint_s: Option<f64>,
+    /// The sea surface's altitude (m AMSL) as the drone last told it (`alt_image`).
+    #[serde(skip)]
+    water_amsl_m: Option<f64>,
 }
 
 /// Counters of what arrived.
@@ -52,6 +63,10 @@ pub struct IngestStats {
     pub digest_positions: u64,
     /// Messages from vehicles not in `input.vehicles`.
     pub other_vehicles: u64,
+    /// Camera footprints made from CAMERA_FOV_STATUS.
+    pub footprints: u64,
+    /// CAMERA_FOV_STATUS messages that gave no footprint (unknown position or field of view).
+    pub bad_footprints: u64,
 }
 
 /// Turns messages into fuser input.
@@ -110,6 +125,7 @@ impl Ingest {
                 | MavMessage::SYSTEM_TIME(_)
                 | MavMessage::GLOBAL_POSITION_INT(_)
                 | MavMessage::STATUSTEXT(_)
+                | MavMessage::CAMERA_FOV_STATUS(_)
                 | MavMessage::HEARTBEAT(_)
         );
         if !is_vehicle_message {
@@ -134,6 +150,9 @@ impl Ingest {
             last_heard_s: arrival_s,
             track_messages: 0,
             digest_positions: 0,
+            footprint: Vec::new(),
+            footprint_s: None,
+            water_amsl_m: None,
         });
         drone.last_heard_s = arrival_s;
         match msg {
@@ -148,6 +167,22 @@ impl Ingest {
                 drone.position = Some((f64::from(p.lat) / 1e7, f64::from(p.lon) / 1e7));
                 drone.alt_m = f64::from(p.alt) / 1e3;
                 drone.heading_deg = (p.hdg != u16::MAX).then(|| f64::from(p.hdg) / 100.0);
+            }
+            MavMessage::CAMERA_FOV_STATUS(f) => {
+                if let Some(water) = known_mm(f.alt_image) {
+                    drone.water_amsl_m = Some(water);
+                }
+                match footprint(f, drone.water_amsl_m.unwrap_or(0.0)) {
+                    Ok(ring) => {
+                        drone.footprint = ring;
+                        drone.footprint_s = Some(arrival_s);
+                        self.stats.footprints += 1;
+                    }
+                    Err(why) => {
+                        self.stats.bad_footprints += 1;
+                        tracing::debug!(system_id = sys, %why, "CAMERA_FOV_STATUS not used");
+                    }
+                }
             }
             MavMessage::MGMOT_TRACK(t) => {
                 drone.track_messages += 1;
@@ -211,5 +246,188 @@ impl Ingest {
             }
             _ => {}
         }
+    }
+}
+
+/// Points per image edge of a footprint (16 in all, as `mgmot run`'s CoT footprint).
+const FOOTPRINT_POINTS_PER_EDGE: usize = 4;
+/// A footprint reaches at most this far from the camera (m): beyond it a flat sea and a
+/// degree of attitude error say little (the review's footprints use the same limit).
+const FOOTPRINT_MAX_RANGE_M: f64 = 1500.0;
+
+/// A CAMERA_FOV_STATUS altitude (mm) in m, `None` when unknown (INT32_MAX) or at infinity
+/// (INT32_MIN).
+fn known_mm(v: i32) -> Option<f64> {
+    (v != i32::MAX && v != i32::MIN).then(|| f64::from(v) / 1e3)
+}
+
+/// The camera footprint a CAMERA_FOV_STATUS describes, as (lat, lon) degrees; the sea at
+/// `water_amsl_m`.
+pub fn footprint(
+    f: &crate::mavlink::dialect::CAMERA_FOV_STATUS_DATA,
+    water_amsl_m: f64,
+) -> Result<Vec<(f64, f64)>, String> {
+    let (Some(alt_m), true) = (
+        known_mm(f.alt_camera),
+        f.lat_camera != i32::MAX && f.lon_camera != i32::MAX,
+    ) else {
+        return Err("camera position unknown".into());
+    };
+    let camera = Geodetic::new(
+        f64::from(f.lat_camera) / 1e7,
+        f64::from(f.lon_camera) / 1e7,
+        alt_m,
+    )
+    .map_err(|e| e.to_string())?;
+    let q = Quaternion::new(
+        f64::from(f.q[0]),
+        f64::from(f.q[1]),
+        f64::from(f.q[2]),
+        f64::from(f.q[3]),
+    );
+    if !(q.norm() > 0.5 && q.norm() < 1.5) {
+        return Err(format!("quaternion norm {}", q.norm()));
+    }
+    let view = CameraView {
+        camera,
+        height_above_sea_m: alt_m - water_amsl_m,
+        attitude_frd: UnitQuaternion::from_quaternion(q),
+        hfov_deg: f64::from(f.hfov),
+        vfov_deg: f64::from(f.vfov),
+    };
+    let ring = view
+        .footprint(FOOTPRINT_MAX_RANGE_M, FOOTPRINT_POINTS_PER_EDGE)
+        .map_err(|e| e.to_string())?;
+    Ok(ring.iter().map(|g| (g.lat_deg, g.lon_deg)).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::attitude::camera_from_heading_pitch_deg;
+    use crate::geo::{FrameMetadata, LocalTangentFrame};
+    use crate::ground::geojson::footprint_feature;
+    use crate::mavlink::encode::camera_fov_status;
+    use crate::telemetry::AutopilotTimeUs;
+    use mgmot_core::fuse::FuseParams;
+
+    fn header(system_id: u8, component_id: u8) -> MavHeader {
+        MavHeader {
+            system_id: system_id.into(),
+            component_id,
+            sequence: 0,
+        }
+    }
+
+    /// What `mgmot run` sends for a camera 60 m above a sea at 2 m AMSL, looking `heading_deg`
+    /// and `pitch_deg` below the horizon, with a 16:9 image and a 70 deg field of view.
+    fn fov_message(heading_deg: f64, pitch_deg: f64, centre: bool) -> MavMessage {
+        let meta = FrameMetadata {
+            position: Geodetic::new(54.18, 7.89, 62.0).unwrap(),
+            height_above_sea_m: 60.0,
+            camera_attitude: camera_from_heading_pitch_deg(heading_deg, pitch_deg, 0.0),
+        };
+        let vfov = 2.0 * (35f64.to_radians().tan() * 9.0 / 16.0).atan().to_degrees();
+        let view = CameraView::of_frame(&meta, 70.0, vfov);
+        let c = Geodetic::new(54.18, 7.89, 2.0).unwrap();
+        camera_fov_status(AutopilotTimeUs(5_000_000), &view, centre.then_some(&c))
+    }
+
+    #[test]
+    fn a_camera_fov_status_from_mgmot_run_becomes_the_drones_footprint_on_the_map() {
+        let mut ingest = Ingest::new(InputConfig::default());
+        let mut fuser = Fuser::new(FuseParams::default());
+        ingest.message(
+            &header(3, 191),
+            &fov_message(0.0, 90.0, true),
+            100.0,
+            &mut fuser,
+        );
+        let drone = ingest.drones().next().unwrap();
+        assert_eq!(drone.system_id, 3);
+        assert_eq!(drone.footprint.len(), 16);
+        assert_eq!(ingest.stats().footprints, 1);
+        // Nadir from 60 m above the sea (alt_image gave the sea at 2 m): 2 * 60 * tan(35 deg)
+        // = 84.0 m across, east-west, as the camera's heading is north.
+        let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
+        let east: Vec<f64> = drone
+            .footprint
+            .iter()
+            .map(|&(lat, lon)| frame.to_ned(&Geodetic::new(lat, lon, 0.0).unwrap()).y)
+            .collect();
+        let width = east.iter().copied().fold(f64::MIN, f64::max)
+            - east.iter().copied().fold(f64::MAX, f64::min);
+        assert!((width - 84.02).abs() < 0.1, "{width}");
+
+        // As GeoJSON: a closed, counterclockwise ring, while fresh.
+        let f = footprint_feature(drone, 5.0, 101.0).unwrap();
+        let ring = f["geometry"]["coordinates"][0].as_array().unwrap();
+        assert_eq!(ring.len(), 17);
+        assert_eq!(ring[0], ring[16]);
+        let pts: Vec<(f64, f64)> = ring
+            .iter()
+            .map(|p| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+            .collect();
+        let area2: f64 = pts
+            .windows(2)
+            .map(|w| w[0].0 * w[1].1 - w[1].0 * w[0].1)
+            .sum();
+        assert!(area2 > 0.0, "clockwise ring");
+        assert_eq!(
+            f["properties"]["time_unix_ms"], 4000,
+            "on the picture's clock"
+        );
+        assert!(footprint_feature(drone, 64.0, 160.0).is_none(), "stale");
+    }
+
+    #[test]
+    fn an_oblique_camera_looking_east_sees_water_to_the_east_and_bad_messages_are_counted() {
+        let mut ingest = Ingest::new(InputConfig::default());
+        let mut fuser = Fuser::new(FuseParams::default());
+        // The sea level was told once; a later message whose centre is above the horizon
+        // (alt_image unknown) keeps it.
+        ingest.message(
+            &header(3, 191),
+            &fov_message(0.0, 90.0, true),
+            100.0,
+            &mut fuser,
+        );
+        ingest.message(
+            &header(3, 191),
+            &fov_message(90.0, 20.0, false),
+            101.0,
+            &mut fuser,
+        );
+        let drone = ingest.drones().next().unwrap();
+        let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
+        let east_min = drone
+            .footprint
+            .iter()
+            .map(|&(lat, lon)| frame.to_ned(&Geodetic::new(lat, lon, 0.0).unwrap()).y)
+            .fold(f64::MAX, f64::min);
+        // 20 deg down with a 43 deg vertical field: the near edge 60 / tan(41.5 deg) = 67.9 m
+        // east of the camera.
+        assert!((east_min - 67.9).abs() < 1.0, "{east_min}");
+
+        let MavMessage::CAMERA_FOV_STATUS(mut bad) = fov_message(0.0, 90.0, true) else {
+            unreachable!()
+        };
+        bad.hfov = f32::NAN;
+        ingest.message(
+            &header(3, 191),
+            &MavMessage::CAMERA_FOV_STATUS(bad.clone()),
+            102.0,
+            &mut fuser,
+        );
+        bad.hfov = 70.0;
+        bad.lat_camera = i32::MAX;
+        ingest.message(
+            &header(3, 191),
+            &MavMessage::CAMERA_FOV_STATUS(bad),
+            103.0,
+            &mut fuser,
+        );
+        assert_eq!(ingest.stats().bad_footprints, 2);
+        assert_eq!(ingest.stats().footprints, 2);
     }
 }

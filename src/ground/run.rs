@@ -248,13 +248,14 @@ pub async fn run(
                 }
             }
             _ = tick.tick() => {
-                let now = ingest.now(now_s());
+                let ground_s = now_s();
+                let now = ingest.now(ground_s);
                 fuser.step(now);
                 let picture = fuser.picture(now);
                 let retired = fuser.take_retired();
                 stats.retired += retired.len() as u64;
                 stats.updates += 1;
-                let geojson = collection(now, &picture, ingest.drones());
+                let geojson = collection(now, ground_s, &picture, ingest.drones());
                 if let Some(server) = &server {
                     server.publish(Arc::from(geojson.to_string()));
                 }

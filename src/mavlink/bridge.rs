@@ -10,12 +10,13 @@
 use super::decode::{decode, decode_mount_status, CameraCommand, Incoming};
 use super::dialect::MavCmd;
 use super::encode::{
-    camera_information, camera_tracking_geo_status, camera_tracking_geo_status_lost,
-    camera_tracking_image_status, camera_tracking_image_status_lost, command_ack, heartbeat,
-    mgmot_track, statustext, target_absolute, AckResult, Severity,
+    camera_fov_status, camera_information, camera_tracking_geo_status,
+    camera_tracking_geo_status_lost, camera_tracking_image_status,
+    camera_tracking_image_status_lost, command_ack, heartbeat, mgmot_track, statustext,
+    target_absolute, AckResult, Severity,
 };
 use super::link::{Link, LinkError, LinkEvent, LinkSender, LinkSettings, OnSent, Received};
-use crate::geo::Geodetic;
+use crate::geo::{CameraView, Geodetic};
 use crate::health::{Level, Notice};
 use crate::logging::LogThrottle;
 use crate::operator::{CommandResult, Request};
@@ -308,6 +309,12 @@ impl Outputs {
                 self.sender.send(m);
             }
         }
+    }
+
+    /// Where the camera is and looks (CAMERA_FOV_STATUS), for a ground station's footprint:
+    /// see [`camera_fov_status`].
+    pub fn camera_fov(&self, time: AutopilotTimeUs, view: &CameraView, centre: Option<&Geodetic>) {
+        self.sender.send(camera_fov_status(time, view, centre));
     }
 
     /// The operator-selected track's status (CAMERA_TRACKING_IMAGE_STATUS and

@@ -1,8 +1,9 @@
 //! The messages mgmot sends, built from domain values.
 
 use super::dialect::*;
+use crate::geo::{CameraView, Geodetic};
 use crate::report::{TrackReport, TrackingMode, TrackingStatus};
-use crate::telemetry::CompanionTimeUs;
+use crate::telemetry::{AutopilotTimeUs, CompanionTimeUs};
 use mavlink_core::MessageData;
 use std::num::NonZeroU16;
 
@@ -227,6 +228,46 @@ pub fn mgmot_track(r: &TrackReport) -> MavMessage {
             MgmotTrackState::MGMOT_TRACK_STATE_LOST
         },
         flags,
+    })
+}
+
+/// Altitude (m) as CAMERA_FOV_STATUS's millimetres.
+fn alt_mm(alt_m: f64) -> i32 {
+    (alt_m * 1000.0)
+        .round()
+        .clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+}
+
+/// CAMERA_FOV_STATUS: where the camera is and looks, for a ground station's footprint. `time`
+/// is the frame's exposure on the autopilot clock; `centre` where the image centre meets the
+/// sea (`None`: at or above the horizon, sent as INT32_MIN, "at infinity"). The image centre's
+/// altitude is the sea surface's.
+pub fn camera_fov_status(
+    time: AutopilotTimeUs,
+    view: &CameraView,
+    centre: Option<&Geodetic>,
+) -> MavMessage {
+    let q = view.attitude_frd.quaternion();
+    let (lat_image, lon_image, alt_image) = match centre {
+        Some(c) => (
+            deg_e7(c.lat_deg),
+            deg_e7(c.lon_deg),
+            alt_mm(view.camera.alt_m - view.height_above_sea_m),
+        ),
+        None => (i32::MIN, i32::MIN, i32::MIN),
+    };
+    MavMessage::CAMERA_FOV_STATUS(CAMERA_FOV_STATUS_DATA {
+        time_boot_ms: (time.0 / 1000) as u32,
+        lat_camera: deg_e7(view.camera.lat_deg),
+        lon_camera: deg_e7(view.camera.lon_deg),
+        alt_camera: alt_mm(view.camera.alt_m),
+        lat_image,
+        lon_image,
+        alt_image,
+        q: [q.w as f32, q.i as f32, q.j as f32, q.k as f32],
+        hfov: view.hfov_deg as f32,
+        vfov: view.vfov_deg as f32,
+        camera_device_id: 0,
     })
 }
 

@@ -9,7 +9,7 @@ mod address;
 pub mod bridge;
 mod decode;
 pub use mgmot_wire::dialect;
-mod encode;
+pub(crate) mod encode;
 pub mod link;
 pub mod signing;
 

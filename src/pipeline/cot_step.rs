@@ -130,7 +130,7 @@ impl CotStep {
                     lat_deg: meta.position.lat_deg,
                     lon_deg: meta.position.lon_deg,
                     alt_amsl_m: meta.position.alt_m,
-                    heading_deg: look.y.atan2(look.x).to_degrees(),
+                    heading_deg: Some(look.y.atan2(look.x).to_degrees()),
                 };
                 let ring: Vec<(f64, f64)> = geolocator
                     .and_then(|g| g.frame(meta).ok())

@@ -4,6 +4,7 @@
 //! tracker, publishes the due track reports and the operator-selected track's status, and
 //! records each stage's latency.
 
+use super::camera_fov::CameraFovStep;
 use super::capture::Delivered;
 use super::cot_step::CotStep;
 use super::detect_stage::DetectStage;
@@ -52,6 +53,8 @@ pub(super) struct FrameStep {
     publisher: TrackPublisher,
     /// Cursor-on-Target events, when `[outputs.cot]` is on.
     cot: Option<CotStep>,
+    /// CAMERA_FOV_STATUS, unless `outputs.camera_fov_hz` is 0.
+    camera_fov: Option<CameraFovStep>,
     operator: OperatorLink,
     outputs: Outputs,
     latency: Arc<Mutex<Latency>>,
@@ -104,6 +107,7 @@ impl FrameStep {
                 outputs.clone(),
             ),
             cot: CotStep::start(settings),
+            camera_fov: CameraFovStep::new(settings.outputs.camera_fov_every),
             operator,
             outputs,
             latency,
@@ -309,6 +313,15 @@ impl FrameStep {
             &fix,
             &timing,
         );
+        if let Some(fov) = &mut self.camera_fov {
+            fov.frame(
+                &self.outputs,
+                tracker_time_us(time_s),
+                pose,
+                geolocator,
+                size,
+            );
+        }
         if let Some(cot) = &mut self.cot {
             cot.frame(
                 output,

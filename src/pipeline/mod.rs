@@ -6,6 +6,7 @@
 //! latency histograms in the logs ([`latency`]); operator-selected tracking (`operator_link`, on
 //! the core's `operator`); systemd's READY / WATCHDOG / STATUS notifications (`service`).
 
+mod camera_fov;
 mod capture;
 mod cot_step;
 mod detect_stage;

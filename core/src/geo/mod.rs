@@ -20,6 +20,7 @@ mod circular_error;
 mod geolocate;
 mod smoothing;
 mod uncertainty;
+mod view;
 mod wgs84;
 
 pub use camera::{
@@ -29,6 +30,7 @@ pub use circular_error::circular_error_m;
 pub use geolocate::{FrameGeometry, FrameMetadata, Geolocation, Geolocator};
 pub use smoothing::{AttitudeSmoother, AttitudeSmoothing};
 pub use uncertainty::{geolocation_covariance, PoseNoise};
+pub use view::CameraView;
 pub use wgs84::{Geodetic, LocalTangentFrame};
 
 /// Why a geometric computation has no answer. Never NaN, never a point behind the camera.
