@@ -1,10 +1,10 @@
 //! `mgmot ground`: the fused ground picture of every drone (live map, GeoJSON, CoT,
 //! recording).
 
+use super::signals::run_until_signal;
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use mgmot::ground::{self, GroundConfig};
-use mgmot::pipeline::shutdown_signal;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -72,27 +72,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Ok(Duration::from_secs_f64(s))
         })
         .transpose()?;
-    let settings = config.validate()?;
+    let source = args
+        .config
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("(defaults and flags)"));
+    let settings = config.validate(&source)?;
     let effective = serde_json::to_value(&config).context("serialising the configuration")?;
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("starting the async runtime")?;
-    let stats = runtime.block_on(async move {
-        let (trigger, shutdown) = shutdown_signal();
-        let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-            .context("installing the SIGTERM handler")?;
-        let signals = tokio::spawn(async move {
-            tokio::select! {
-                _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT: stopping"),
-                _ = sigterm.recv() => tracing::info!("SIGTERM: stopping"),
-            }
-            trigger.fire();
-        });
-        let stats = ground::run(settings, effective, shutdown, duration).await?;
-        signals.abort();
-        anyhow::Ok(stats)
+    let stats = run_until_signal(|shutdown| async move {
+        Ok(ground::run(settings, effective, shutdown, duration).await?)
     })?;
     eprintln!(
         "mgmot ground: {} drones, {} MGMOT_TRACK ({} used, {} provisional, {} without position), {} digest positions, {} fused ids ({} merged away), {} updates",

@@ -15,6 +15,7 @@ mod oracle;
 mod replay;
 mod review;
 mod run;
+mod signals;
 mod stdout;
 mod track;
 mod track_output;

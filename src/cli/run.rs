@@ -1,9 +1,10 @@
 //! `mgmot run`: the onboard runtime (what flies).
 
+use super::signals::run_until_signal;
 use anyhow::Context;
 use clap::Args as ClapArgs;
 use mgmot::config::Config;
-use mgmot::pipeline::{self, shutdown_signal};
+use mgmot::pipeline;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -47,25 +48,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 })
         })
         .transpose()?;
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("starting the async runtime")?;
-    runtime.block_on(async move {
-        let (trigger, shutdown) = shutdown_signal();
-        let mut sigterm =
-            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-                .context("installing the SIGTERM handler")?;
-        let signals = tokio::spawn(async move {
-            tokio::select! {
-                _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT: stopping"),
-                _ = sigterm.recv() => tracing::info!("SIGTERM: stopping"),
-            }
-            trigger.fire();
-        });
+    run_until_signal(|shutdown| async move {
         let stats = pipeline::run(settings, &effective, shutdown).await?;
-        signals.abort();
         eprintln!(
             "mgmot run: {} frames captured, {} processed ({} without pose), {} dropped, {} detector errors, {} track messages",
             stats.frames_captured,

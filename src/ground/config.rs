@@ -1,7 +1,7 @@
 //! `mgmot ground`'s configuration: where the MAVLink comes from, how to fuse, what to serve.
 //! Every key has a default; `mgmot ground` runs without a file.
 
-use crate::config::{CotConfig, CotSettings, Problem, Problems};
+use crate::config::{ConfigError, CotConfig, CotSettings, Problems};
 use mgmot_core::fuse::FuseParams;
 use serde::{Deserialize, Serialize};
 use std::net::SocketAddr;
@@ -123,30 +123,6 @@ pub struct GroundSettings {
     pub cot: Option<CotSettings>,
 }
 
-/// Why a configuration cannot be used.
-#[derive(Debug, thiserror::Error)]
-pub enum GroundConfigError {
-    /// The file cannot be read.
-    #[error("cannot read {path}: {source}")]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// Not TOML of this shape.
-    #[error("{path}: {message}")]
-    Parse {
-        /// The file.
-        path: PathBuf,
-        /// The parser's message.
-        message: String,
-    },
-    /// Values out of range.
-    #[error("{} problem(s): {}", .0.len(), .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
-    Invalid(Vec<Problem>),
-}
-
 fn socket_addr(p: &mut Problems, key: &str, s: &str) -> Option<SocketAddr> {
     use std::net::ToSocketAddrs;
     match s.to_socket_addrs().map(|mut a| a.next()) {
@@ -163,19 +139,20 @@ fn socket_addr(p: &mut Problems, key: &str, s: &str) -> Option<SocketAddr> {
 
 impl GroundConfig {
     /// Reads a file.
-    pub fn load(path: &Path) -> Result<Self, GroundConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| GroundConfigError::Read {
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
             path: path.to_owned(),
             source,
         })?;
-        toml::from_str(&text).map_err(|e| GroundConfigError::Parse {
+        toml::from_str(&text).map_err(|e| ConfigError::Parse {
             path: path.to_owned(),
             message: e.to_string(),
         })
     }
 
-    /// The settings, or every problem found.
-    pub fn validate(&self) -> Result<GroundSettings, GroundConfigError> {
+    /// The settings, or every problem found; `source` names where the configuration came
+    /// from in the error (the file, or the flags over the defaults).
+    pub fn validate(&self, source: &Path) -> Result<GroundSettings, ConfigError> {
         let mut p = Problems::default();
         const CONN: &str = "input.connections";
         if self.input.connections.is_empty() {
@@ -231,7 +208,10 @@ impl GroundConfig {
                 record: file(&self.outputs.record),
                 cot,
             }),
-            _ => Err(GroundConfigError::Invalid(p.into_vec())),
+            _ => Err(ConfigError::Invalid {
+                path: source.to_owned(),
+                problems: p.into_vec(),
+            }),
         }
     }
 }
@@ -242,7 +222,7 @@ mod tests {
 
     #[test]
     fn defaults_are_valid_and_listen_on_14550() {
-        let s = GroundConfig::default().validate().unwrap();
+        let s = GroundConfig::default().validate(Path::new("x")).unwrap();
         assert_eq!(
             s.connections,
             vec![UdpEndpoint::In("0.0.0.0:14550".parse().unwrap())]
@@ -269,7 +249,7 @@ mod tests {
             "#,
         )
         .unwrap();
-        let Err(GroundConfigError::Invalid(problems)) = c.validate() else {
+        let Err(ConfigError::Invalid { problems, .. }) = c.validate(Path::new("x")) else {
             panic!("accepted");
         };
         let text = problems

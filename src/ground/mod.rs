@@ -14,5 +14,5 @@ pub mod ingest;
 pub mod record;
 mod run;
 
-pub use config::{GroundConfig, GroundConfigError, GroundSettings};
+pub use config::{GroundConfig, GroundSettings};
 pub use run::{run, CotCounters, GroundError, GroundStats};
