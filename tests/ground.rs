@@ -435,16 +435,6 @@ fn score(f: &Flown) -> Scores {
     print_score("fused", &fused);
     print_score("drone 1", &single[0]);
     print_score("drone 2", &single[1]);
-    assert_eq!(
-        fused.objects,
-        both.len(),
-        "every object seen by both is in the picture"
-    );
-    assert!(
-        fused.ids_per_object <= 1.1,
-        "fused ids per object {}",
-        fused.ids_per_object
-    );
     // Position error where fusion has something to fuse: the moments both drones report the
     // object (within 300 ms of a picture update), fused against each drone at those moments.
     let per_drone: Vec<_> = drones_both.iter().map(|d| matches_by_object(d)).collect();
@@ -464,6 +454,25 @@ fn score(f: &Flown) -> Scores {
             }
         }
     }
+    // The errors are printed before the ids are checked.
+    if !paired[0].is_empty() {
+        let [fu, d1, d2] = paired.clone().map(median_p95);
+        eprintln!(
+            "both drones at once ({} samples): fused median {:.2} p95 {:.2} m; drone 1 {:.2} / {:.2}; drone 2 {:.2} / {:.2}",
+            paired[0].len(),
+            fu.0, fu.1, d1.0, d1.1, d2.0, d2.1
+        );
+    }
+    assert_eq!(
+        fused.objects,
+        both.len(),
+        "every object seen by both is in the picture"
+    );
+    assert!(
+        fused.ids_per_object <= 1.1,
+        "fused ids per object {}",
+        fused.ids_per_object
+    );
     Scores { paired, pictures }
 }
 
@@ -605,9 +614,10 @@ fn two_drones_passing_at_different_times_keep_one_fused_id_per_object() {
 
 /// `two_drones_abreast`: both drones see the same objects at the same moments. One fused id
 /// per object; at those moments the fused position lies within the drones' own errors (a
-/// weighted mean of the two, predicted to the picture's time, is never further from the truth
-/// than the worse of them, but for the prediction). Whether it beats the better drone (the
-/// issue's target) is printed, not asserted: measured, it does not yet (docs/ground.md).
+/// weighted mean of the two is never further from the truth than the worse of them, but for
+/// the prediction to the picture's time). Whether it beats the better drone (the issue's
+/// target) is printed, not asserted, as 20-50 moments make a noisy median: measured, it does
+/// on seeds 31 and 202 (docs/ground.md).
 #[test]
 fn two_drones_abreast_fuse_within_the_drones_errors() {
     let f = fly("two_drones_abreast", 90.0, None);
@@ -617,11 +627,7 @@ fn two_drones_abreast_fuse_within_the_drones_errors() {
     let within = (0..n)
         .filter(|&i| paired[0][i] <= paired[1][i].max(paired[2][i]) + 0.25)
         .count();
-    let [fu, d1, d2] = paired.map(median_p95);
-    eprintln!(
-        "both drones at once ({n} samples): fused median {:.2} p95 {:.2} m; drone 1 {:.2} / {:.2}; drone 2 {:.2} / {:.2}; fused within the worse drone's error + 0.25 m at {within} of {n}",
-        fu.0, fu.1, d1.0, d1.1, d2.0, d2.1
-    );
+    eprintln!("fused within the worse drone's error + 0.25 m at {within} of {n} moments");
     check_footprints(&pictures);
     assert!(
         within as f64 >= 0.9 * n as f64,
