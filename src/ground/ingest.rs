@@ -333,6 +333,16 @@ mod tests {
         camera_fov_status(AutopilotTimeUs(5_000_000), &view, centre.then_some(&c))
     }
 
+    /// East (m) of each footprint point from the camera's nadir.
+    fn east_of(drone: &Drone) -> Vec<f64> {
+        let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
+        drone
+            .footprint
+            .iter()
+            .map(|&(lat, lon)| frame.to_ned(&Geodetic::new(lat, lon, 0.0).unwrap()).y)
+            .collect()
+    }
+
     #[test]
     fn a_camera_fov_status_from_mgmot_run_becomes_the_drones_footprint_on_the_map() {
         let mut ingest = Ingest::new(InputConfig::default());
@@ -349,12 +359,7 @@ mod tests {
         assert_eq!(ingest.stats().footprints, 1);
         // Nadir from 60 m above the sea (alt_image gave the sea at 2 m): 2 * 60 * tan(35 deg)
         // = 84.0 m across, east-west, as the camera's heading is north.
-        let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
-        let east: Vec<f64> = drone
-            .footprint
-            .iter()
-            .map(|&(lat, lon)| frame.to_ned(&Geodetic::new(lat, lon, 0.0).unwrap()).y)
-            .collect();
+        let east = east_of(drone);
         let width = east.iter().copied().fold(f64::MIN, f64::max)
             - east.iter().copied().fold(f64::MAX, f64::min);
         assert!((width - 84.02).abs() < 0.1, "{width}");
@@ -399,12 +404,7 @@ mod tests {
             &mut fuser,
         );
         let drone = ingest.drones().next().unwrap();
-        let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
-        let east_min = drone
-            .footprint
-            .iter()
-            .map(|&(lat, lon)| frame.to_ned(&Geodetic::new(lat, lon, 0.0).unwrap()).y)
-            .fold(f64::MAX, f64::min);
+        let east_min = east_of(drone).into_iter().fold(f64::MAX, f64::min);
         // 20 deg down with a 43 deg vertical field: the near edge 60 / tan(41.5 deg) = 67.9 m
         // east of the camera.
         assert!((east_min - 67.9).abs() < 1.0, "{east_min}");
