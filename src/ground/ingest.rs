@@ -333,6 +333,11 @@ mod tests {
         camera_fov_status(AutopilotTimeUs(5_000_000), &view, centre.then_some(&c))
     }
 
+    /// Drone 3's `mgmot run` (component 191) sends `msg`, arriving at `at` (s).
+    fn from_drone_3(ingest: &mut Ingest, fuser: &mut Fuser, msg: &MavMessage, at: f64) {
+        ingest.message(&header(3, 191), msg, at, fuser);
+    }
+
     /// East (m) of each footprint point from the camera's nadir.
     fn east_of(drone: &Drone) -> Vec<f64> {
         let frame = LocalTangentFrame::new(Geodetic::new(54.18, 7.89, 0.0).unwrap());
@@ -347,11 +352,11 @@ mod tests {
     fn a_camera_fov_status_from_mgmot_run_becomes_the_drones_footprint_on_the_map() {
         let mut ingest = Ingest::new(InputConfig::default());
         let mut fuser = Fuser::new(FuseParams::default());
-        ingest.message(
-            &header(3, 191),
+        from_drone_3(
+            &mut ingest,
+            &mut fuser,
             &fov_message(0.0, 90.0, true),
             100.0,
-            &mut fuser,
         );
         let drone = ingest.drones().next().unwrap();
         assert_eq!(drone.system_id, 3);
@@ -391,17 +396,17 @@ mod tests {
         let mut fuser = Fuser::new(FuseParams::default());
         // The sea level was told once; a later message whose centre is above the horizon
         // (alt_image unknown) keeps it.
-        ingest.message(
-            &header(3, 191),
+        from_drone_3(
+            &mut ingest,
+            &mut fuser,
             &fov_message(0.0, 90.0, true),
             100.0,
-            &mut fuser,
         );
-        ingest.message(
-            &header(3, 191),
+        from_drone_3(
+            &mut ingest,
+            &mut fuser,
             &fov_message(90.0, 20.0, false),
             101.0,
-            &mut fuser,
         );
         let drone = ingest.drones().next().unwrap();
         let east_min = east_of(drone).into_iter().fold(f64::MAX, f64::min);
@@ -413,19 +418,19 @@ mod tests {
             unreachable!()
         };
         bad.hfov = f32::NAN;
-        ingest.message(
-            &header(3, 191),
+        from_drone_3(
+            &mut ingest,
+            &mut fuser,
             &MavMessage::CAMERA_FOV_STATUS(bad.clone()),
             102.0,
-            &mut fuser,
         );
         bad.hfov = 70.0;
         bad.lat_camera = i32::MAX;
-        ingest.message(
-            &header(3, 191),
+        from_drone_3(
+            &mut ingest,
+            &mut fuser,
             &MavMessage::CAMERA_FOV_STATUS(bad),
             103.0,
-            &mut fuser,
         );
         assert_eq!(ingest.stats().bad_footprints, 2);
         assert_eq!(ingest.stats().footprints, 2);
