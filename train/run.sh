@@ -9,6 +9,7 @@
 # Environment knobs (defaults in brackets):
 #   MGMOT_TRAIN_MINUTES  wall-clock training budget, stage 1         [40]
 #   MGMOT_TRAIN_FT_MINUTES  class-balanced fine-tune, stage 2        [15]
+#   MGMOT_TRAIN_SCALE_MINUTES  fine-tune at the runtime's scale, stage 3 [45]
 #   MGMOT_TRAIN_RESUME   1 = keep an existing stage-1 checkpoint       [0]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
@@ -20,7 +21,8 @@
 #   MGMOT_SIM            a prebuilt mgmot-sim binary  [built: target/release/mgmot-sim]
 #   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
 # Seeds and splits (renders): training uses seeds 1, 2, ... (every scenario per seed) until
-# MGMOT_TRAIN_FRAMES frames exist; held-out seeds 100001 and 100002 (same conditions as
+# MGMOT_TRAIN_FRAMES frames exist; tuning seeds 50001 and 50002 (training conditions, for
+# choosing between recipes); held-out seeds 100001 and 100002 (same conditions as
 # training, disjoint seeds); held-out conditions: seeds 200001-200003, each variant drawn from
 # one condition training never saw (rough sea, low sun, the 80-100 m altitude band; see
 # scenarios.py). torch / numpy are seeded with 1. A manifest of every rendered sequence and
@@ -30,6 +32,7 @@ HERE="$(cd "$(dirname "$0")" && pwd)"
 ROOT="$(cd "$HERE/.." && pwd)"
 MINUTES="${MGMOT_TRAIN_MINUTES:-40}"
 FT_MINUTES="${MGMOT_TRAIN_FT_MINUTES:-15}"
+SCALE_MINUTES="${MGMOT_TRAIN_SCALE_MINUTES:-45}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
 PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
 RUN="$HERE/runs/sim"
@@ -65,7 +68,7 @@ else
         local out="$DATA/$1/${2}_s$3"
         [[ -f "$out/annotations.json" ]] && return 0
         local toml="$DATA/scenarios/${2}_s$3.toml" every
-        every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$1" --out "$toml" --frames "$PER_SEQ")"
+        every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "${1/tuning/train}" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
     }
@@ -78,11 +81,14 @@ else
     for sc in "${SCENARIOS[@]}"; do
         for seed in 100001 100002; do render heldout "$sc" "$seed"; done
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
+        # Tuning seeds (training conditions, seeds disjoint from both): choosing between
+        # training recipes is done on these, so that the held-out figures stay unseen.
+        for seed in 50001 50002; do render tuning "$sc" "$seed"; done
     done
-    echo "frames: train $(count_frames "$DATA/train"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
+    echo "frames: train $(count_frames "$DATA/train"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
     "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
     TRAIN_DATA="$DATA/train"
-    EVAL=("heldout:$DATA/heldout" "conditions:$DATA/conditions")
+    EVAL=("tuning:$DATA/tuning" "heldout:$DATA/heldout" "conditions:$DATA/conditions")
 fi
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
@@ -103,11 +109,17 @@ fi
 # 3b. Class-balanced fine-tune: frames and views drawn by class weight (commonest / class)^0.5,
 #     so jetskis, life-saving appliances and buoys are seen about as often as swimmers.
 "$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$FT_MINUTES" --seed 2 \
-    --lr 1e-3 --balance 0.5 --init "$RUN/tinydet-stage1.pt" --out "$RUN/tinydet.pt"
+    --lr 1e-3 --balance 0.5 --init "$RUN/tinydet-stage1.pt" --out "$RUN/tinydet-stage2.pt"
+# 3c. At the runtime's scale: stages 1 and 2 scale frames by 0.2-1 and letterbox 10 % of them
+#     whole into the 192 px crop (0.15), but `mgmot run` letterboxes a 1280x720 frame into the
+#     800x448 input (0.62) or, tiled, reads native pixels (1). Views scaled by 0.45-1 only, no
+#     whole-frame views, a little more class balance.
+"$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$SCALE_MINUTES" --seed 3 \
+    --lr 1e-3 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage2.pt" --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
-"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 128
+"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 256
 for e in "${EVAL[@]}"; do
     name="${e%%:*}" dir="${e#*:}"
     "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$dir" --split val \
@@ -126,7 +138,7 @@ if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     "$PY" -c "
 import json, sys
 run = sys.argv[1]
-stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet'))}
+stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet'))}
 json.dump(stages, open(sys.argv[2], 'w'), indent=1)
 " "$RUN" "$ROOT/models/training-log.json"
     [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"

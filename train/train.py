@@ -44,24 +44,25 @@ def class_weights(samples, nc: int, power: float) -> np.ndarray:
     return (counts.max() / np.maximum(counts, 1)) ** power
 
 
-def random_view(sample, size, rng, weights=None):
+def random_view(sample, size, rng, weights=None, scales=(0.2, 1.0), whole_frame=0.1):
     """One size x size training view of a frame: (image, boxes, classes).
 
-    The frame is scaled by a log-uniform factor in [0.2, 1]: 0.25 is what a
-    1280x720 frame looks like letterboxed into the 320 px input, 1 is a
-    native-resolution tile (``mgmot detect --tile``). 70 % of the views are
-    placed so that they contain the centre of a random labelled object (most of
-    a frame is empty sea), the rest anywhere; 10 % are the whole frame
-    letterboxed into the view.
+    The frame is scaled by a log-uniform factor in ``scales``: 0.62 is what a
+    1280x720 frame looks like letterboxed into the shipped 800x448 input (what
+    ``mgmot run`` does by default), 1 is a native-resolution tile (``[detector]
+    tile``). 70 % of the views are placed so that they contain the centre of a
+    random labelled object (most of a frame is empty sea), the rest anywhere; a
+    ``whole_frame`` share are the whole frame letterboxed into the view (objects
+    far smaller than the runtime ever sees them: 0.15 at 192 px).
     """
     path, boxes, classes = sample
     im = Image.open(path)
     w0, h0 = im.size
-    if rng.random() < 0.1:
+    if rng.random() < whole_frame:
         img = np.asarray(im.convert("RGB"))
         out, s, px, py = data.letterbox(img, size)
         return out, boxes * s + np.array([px, py, px, py], np.float32), classes.copy()
-    s = math.exp(rng.uniform(math.log(0.2), math.log(1.0)))
+    s = math.exp(rng.uniform(math.log(scales[0]), math.log(scales[1])))
     nw, nh = max(1, round(w0 * s)), max(1, round(h0 * s))
     im.draft("RGB", (nw, nh))  # JPEG: decode at a reduced DCT scale when possible
     img = np.asarray(im.convert("RGB").resize((nw, nh), Image.BILINEAR))
@@ -177,9 +178,10 @@ class Batches(torch.utils.data.IterableDataset):
     Deterministic: one worker, its own generator seeded from ``seed``.
     """
 
-    def __init__(self, samples, crop: int, batch: int, seed: int, balance: float = 0.0):
+    def __init__(self, samples, crop: int, batch: int, seed: int, balance: float = 0.0, scales=(0.2, 1.0), whole_frame=0.1):
         super().__init__()
         self.samples, self.crop, self.batch, self.seed = samples, crop, batch, seed
+        self.scales, self.whole_frame = scales, whole_frame
         # Rarer classes more often: a frame is drawn in proportion to the weight of its
         # rarest-class object, and the view is centred on an object drawn by class weight.
         self.weights = class_weights(samples, len(data.class_names()), balance) if balance > 0 else None
@@ -196,7 +198,7 @@ class Batches(torch.utils.data.IterableDataset):
                     i = int(rng.integers(0, len(self.samples)))
                 else:
                     i = int(rng.choice(len(self.samples), p=self.frame_p))
-                img, boxes, classes = random_view(self.samples[i], self.crop, rng, self.weights)
+                img, boxes, classes = random_view(self.samples[i], self.crop, rng, self.weights, self.scales, self.whole_frame)
                 img, boxes = augment(img, boxes, rng)
                 imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
                 targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
@@ -219,7 +221,20 @@ def main():
     ap.add_argument("--init-onnx", help="start from the weights of this exported model (warm_start.py)")
     ap.add_argument("--balance", type=float, default=0.0,
                     help="oversample rare classes: class weight (commonest / class boxes) ** BALANCE (0: off)")
+    ap.add_argument("--scales", default="0.2,1.0",
+                    help="MIN,MAX: views scale the frame by a log-uniform factor in this range (0.62: the shipped "
+                         "800x448 input on a whole 1280x720 frame; 1: native tiles)")
+    ap.add_argument("--whole-frame", type=float, default=0.1,
+                    help="share of views that are the whole frame letterboxed into the crop")
     args = ap.parse_args()
+    try:
+        lo, hi = (float(v) for v in args.scales.split(","))
+    except ValueError as e:
+        raise SystemExit(f"error: --scales wants MIN,MAX (two numbers), got {args.scales!r}") from e
+    if not 0.01 <= lo <= hi <= 4.0:
+        raise SystemExit(f"error: --scales wants 0.01 <= MIN <= MAX <= 4, got {args.scales!r}")
+    if not 0.0 <= args.whole_frame <= 1.0:
+        raise SystemExit(f"error: --whole-frame wants a share in [0, 1], got {args.whole_frame}")
 
     seed_everything(args.seed)
     torch.set_num_threads(args.threads)
@@ -240,7 +255,7 @@ def main():
     print(f"TinyDet: {nparams} parameters", flush=True)
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=5e-4)
     loader = torch.utils.data.DataLoader(
-        Batches(samples, args.crop, args.batch, args.seed, args.balance), batch_size=None, num_workers=1, prefetch_factor=4
+        Batches(samples, args.crop, args.batch, args.seed, args.balance, (lo, hi), args.whole_frame), batch_size=None, num_workers=1, prefetch_factor=4
     )
     batches = iter(loader)
     if args.init_onnx:
