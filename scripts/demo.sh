@@ -112,9 +112,10 @@ print(f"MGMOT_TRACK messages received by the simulator: {r['messages']} "
       f"{r['false_tracks']} false, {r['without_geolocation']} without geolocation)")
 print(f"geolocation error vs ground truth: median {f(r['error_median_m'])}, p95 {f(r['error_p95_m'])}, max {f(r['error_max_m'])}")
 for o in r["objects"]:
-    print(f"  true object {o['object_id']:>3}: reported as track id(s) {o['track_ids']}, "
-          f"after re-identification {o['final_track_ids']}; worst error {o['error_max_m']:.1f} m, "
-          f"{f(o['error_max_tracked_m'])} while detected")
+    said = ", ".join(f"{n} {k}" for n, k in sorted(o["classes_reported"].items(), key=lambda x: -x[1]))
+    print(f"  true object {o['object_id']:>3} ({o['class']}): reported as track id(s) {o['track_ids']}, "
+          f"after re-identification {o['final_track_ids']}; class in its messages: {said}; "
+          f"worst error {o['error_max_m']:.1f} m, {f(o['error_max_tracked_m'])} while detected")
 try:
     s = json.load(open(os.path.join(d, "stats.json")))
     print("mgmot:", {k: s[k] for k in ("frames_captured", "frames_processed", "frames_dropped", "track_messages") if k in s})

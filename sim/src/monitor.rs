@@ -9,6 +9,7 @@
 //! reported as a swimmer is a class error at a correct position, not a geolocation error of
 //! the swimmer nearest to it.
 
+use crate::scenario::ObjectClass;
 use crate::world::World;
 use mgmot_core::geo::{GeoError, Geodetic, LocalTangentFrame};
 use mgmot_wire::dialect::{MgmotObjectClass, MgmotTrackFlags, MgmotTrackState, MGMOT_TRACK_DATA};
@@ -41,6 +42,8 @@ pub enum TrackCheck {
         error_m: f64,
         /// The message's class is the object's (or the message says unknown).
         same_class: bool,
+        /// The object's class.
+        class: ObjectClass,
     },
 }
 
@@ -60,6 +63,9 @@ pub struct TrackMonitor {
     ids: BTreeMap<u32, (BTreeSet<u32>, u32)>,
     /// Per true object: the largest error of a message at it, and of one in state TRACKED.
     worst_m: BTreeMap<u32, (f64, f64)>,
+    /// Per true object: its class, and how many of its messages carried each class (by the
+    /// message's SeaDronesSee category id, 0 for unknown).
+    classes: BTreeMap<u32, (ObjectClass, BTreeMap<u32, u64>)>,
     track_ids: BTreeSet<u32>,
     /// Re-identification merges mgmot announced: new id -> the old id it now carries.
     merged_into: BTreeMap<u32, u32>,
@@ -131,6 +137,25 @@ pub struct ObjectIds {
     /// The largest of those in state TRACKED, matched to a detection in that frame (m); the
     /// others are the tracker's predictions while the object is not detected.
     pub error_max_tracked_m: Option<f64>,
+    /// The object's class (SeaDronesSee name).
+    pub class: &'static str,
+    /// How many of its messages carried each class, by SeaDronesSee name (`unknown` for a
+    /// message without one).
+    pub classes_reported: BTreeMap<&'static str, u64>,
+}
+
+/// The SeaDronesSee name of MGMOT_TRACK's class (its category id; 0 and others: `unknown`).
+fn category_name(id: u32) -> &'static str {
+    [
+        ObjectClass::Swimmer,
+        ObjectClass::Boat,
+        ObjectClass::Jetski,
+        ObjectClass::LifeSavingAppliance,
+        ObjectClass::Buoy,
+    ]
+    .into_iter()
+    .find(|c| c.category_id() == id)
+    .map_or("unknown", ObjectClass::name)
 }
 
 impl TrackMonitor {
@@ -150,6 +175,7 @@ impl TrackMonitor {
             errors_m: Vec::new(),
             ids: BTreeMap::new(),
             worst_m: BTreeMap::new(),
+            classes: BTreeMap::new(),
             track_ids: BTreeSet::new(),
             merged_into: BTreeMap::new(),
         })
@@ -184,11 +210,19 @@ impl TrackMonitor {
                 object_id,
                 error_m,
                 same_class,
+                class,
             } => {
                 self.errors_m.push(error_m);
                 if !same_class {
                     self.wrong_class += 1;
                 }
+                *self
+                    .classes
+                    .entry(object_id)
+                    .or_insert_with(|| (class, BTreeMap::new()))
+                    .1
+                    .entry(m.object_class as u32)
+                    .or_insert(0) += 1;
                 let entry = self
                     .ids
                     .entry(object_id)
@@ -241,6 +275,7 @@ impl TrackMonitor {
                 error_m,
                 same_class: m.object_class == MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN
                     || o.class.category_id() == m.object_class as u32,
+                class: o.class,
             },
             Some((_, d)) => TrackCheck::FalseTrack { nearest_m: Some(d) },
             None => TrackCheck::FalseTrack { nearest_m: None },
@@ -307,6 +342,15 @@ impl TrackMonitor {
                         .get(&object_id)
                         .map(|w| w.1)
                         .filter(|e| !e.is_nan()),
+                    class: self
+                        .classes
+                        .get(&object_id)
+                        .map_or("unknown", |c| c.0.name()),
+                    classes_reported: self
+                        .classes
+                        .get(&object_id)
+                        .map(|c| c.1.iter().map(|(&id, &n)| (category_name(id), n)).collect())
+                        .unwrap_or_default(),
                 })
                 .collect(),
         }
@@ -337,6 +381,9 @@ mod tests {
             object_class: match class {
                 1 => MgmotObjectClass::MGMOT_OBJECT_CLASS_SWIMMER,
                 2 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BOAT,
+                3 => MgmotObjectClass::MGMOT_OBJECT_CLASS_JETSKI,
+                4 => MgmotObjectClass::MGMOT_OBJECT_CLASS_LIFE_SAVING_APPLIANCE,
+                5 => MgmotObjectClass::MGMOT_OBJECT_CLASS_BUOY,
                 _ => MgmotObjectClass::MGMOT_OBJECT_CLASS_UNKNOWN,
             },
             flags: MgmotTrackFlags::MGMOT_TRACK_FLAGS_GEO_VALID,
@@ -357,9 +404,11 @@ mod tests {
                 object_id,
                 error_m,
                 same_class,
+                class: c,
             } => {
                 assert_eq!(object_id, o.id);
                 assert!(same_class);
+                assert_eq!(c, o.class);
                 assert!((error_m - 2.5).abs() < 0.01, "error {error_m}");
             }
             other => panic!("expected a match, got {other:?}"),
@@ -416,6 +465,30 @@ mod tests {
         assert_eq!(s.objects[0].latest_track_id, 11);
         assert_eq!(s.objects[0].final_track_ids, vec![4, 11]);
         assert!(s.error_max_m.unwrap() < 0.01);
+    }
+
+    #[test]
+    fn each_objects_reported_classes_are_counted() {
+        let w = world();
+        let o = w.objects_at(1.0)[0];
+        let own = o.class.category_id();
+        let other = if own == 1 { 2 } else { 1 };
+        let mut mon = TrackMonitor::new(&w).unwrap();
+        for (t, class) in [(1.0, own), (2.0, own), (3.0, other), (4.0, 0)] {
+            let at = w.objects_at(t)[0].pos_ned_m;
+            mon.observe(&w, &message(&w, t, at, class, 4));
+        }
+        let s = mon.summary();
+        // The unknown class is not counted as wrong: mgmot said nothing about it.
+        assert_eq!((s.matched, s.wrong_class), (4, 1));
+        assert_eq!(s.objects[0].class, o.class.name());
+        let want = BTreeMap::from([
+            (category_name(own), 2),
+            (category_name(other), 1),
+            ("unknown", 1),
+        ]);
+        assert_eq!(s.objects[0].classes_reported, want);
+        assert_ne!(category_name(own), category_name(other));
     }
 
     #[test]

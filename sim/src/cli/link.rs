@@ -261,6 +261,7 @@ fn receive_loop(conn: Conn, ctx: &Receiving<'_>, broken: &AtomicBool, stream_ori
                             object_id,
                             error_m,
                             same_class,
+                            ..
                         } => tracing::debug!(
                             track = track.track_id,
                             object = object_id,
