@@ -45,6 +45,8 @@
 # /var/log, loopback only; every process of the bench ends with it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=scripts/lib/fts.sh
+source scripts/lib/fts.sh
 
 duration=120 scenario=two_drones bin=target/release out=out/bench_ground seed="" size=640x360
 router="${MAVLINK_ROUTERD:-}" inside=0
@@ -86,14 +88,7 @@ fi
 router=$(cd "$(dirname "$router")" && pwd)/$(basename "$router")
 
 if [ "$inside" = 0 ]; then
-  if [ ! -x .venv-tak/bin/python ] || ! .venv-tak/bin/python -c "import FreeTAKServer, pytak, lxml" 2>/dev/null; then
-    echo "== .venv-tak: FreeTAKServer 2.2.1 and pytak 7.6.1 (PyPI)"
-    python3 -m venv .venv-tak
-    # OpenTelemetry 1.24.0: with the newer release pip picks, FreeTAKServer's CoT services die
-    # at start ("property 'span_exporter' of 'BatchSpanProcessor' object has no setter").
-    .venv-tak/bin/pip install -q --disable-pip-version-check FreeTAKServer==2.2.1 \
-      opentelemetry-api==1.24.0 opentelemetry-sdk==1.24.0 pytak==7.6.1 lxml==6.2.0
-  fi
+  fts_venv
   command -v unshare >/dev/null || { echo "bench_ground: needs unshare (util-linux)" >&2; exit 1; }
   # --kill-child: should unshare itself be killed, the bench's PID 1 goes with it, and the
   # kernel ends every process of the namespace.
@@ -117,15 +112,7 @@ if [ "$inside" = 0 ]; then
 fi
 
 # --- inside the namespaces (this shell is PID 1: when it ends, the kernel ends the rest) ---
-ip link set lo up 2>/dev/null || python3 - <<'PY'
-import fcntl, socket, struct
-s = socket.socket(); ifr = struct.pack("16sH", b"lo", 0)
-flags = struct.unpack("16sH", fcntl.ioctl(s, 0x8913, ifr))[1]
-fcntl.ioctl(s, 0x8914, struct.pack("16sH", b"lo", flags | 1))
-PY
-mount -t tmpfs tmpfs /opt
-mount -t tmpfs tmpfs /var/log
-mkdir -p /opt/fts
+fts_namespace_setup
 out="$(cd "$out" && pwd)"
 rm -rf "$out"/*.jsonl "$out"/*.json "$out"/*.log "$out"/*.toml "$out"/*.conf "$out"/*.sock \
   "$out"/*.ready "$out"/dets*_gt "$out"/truth* "$out"/empty.d
@@ -134,13 +121,12 @@ seed_args=()
 [ -z "$seed" ] || seed_args=(--seed "$seed")
 
 pids=()
-fts=""
 # shellcheck disable=SC2317  # called by the EXIT trap
 cleanup() {
   local p
   trap '' INT TERM
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
-  if [ -n "$fts" ]; then pkill -P "$fts" 2>/dev/null || true; kill "$fts" 2>/dev/null || true; fi
+  fts_stop
   wait 2>/dev/null || true
 }
 trap cleanup EXIT
@@ -154,19 +140,7 @@ for k in 1 2; do
     > "$out/detections$k.log" 2>&1
 done
 
-echo "== FreeTAKServer 2.2.1 on 127.0.0.1 (CoT TCP 8087)"
-(cd /opt/fts && FTS_FIRST_START=false exec "$OLDPWD/$py" -m FreeTAKServer.controllers.services.FTS \
-  -CoTIP 127.0.0.1 -SSLCoTIP 127.0.0.1 -DataPackageIP 127.0.0.1 -SSLDataPackageIP 127.0.0.1 \
-  -RestAPIIP 127.0.0.1 -AutoStart True) > "$out/fts.log" 2>&1 &
-fts=$!
-for i in $(seq 1 90); do
-  if $py -c "import socket; socket.create_connection(('127.0.0.1', 8087), 0.5).close()" 2>/dev/null; then break; fi
-  [ "$i" = 90 ] && { echo "bench_ground: FreeTAKServer did not open 8087 in 45 s (see $out/fts.log)" >&2; exit 1; }
-  sleep 0.5
-done
-# A connection that sends nothing holds up other new connections for 60 s on FTS: the probe
-# above closed at once; give the server a moment to forget it.
-sleep 2
+fts_start bench_ground "$out/fts.log" 45
 
 echo "== pytak client on tcp://127.0.0.1:8087; tap on the loopback (TCP to 8087)"
 $py scripts/bench_tak_client.py --url tcp://127.0.0.1:8087 --out "$out/received.jsonl" \

@@ -15,6 +15,8 @@
 # on this machine is touched and nothing is reachable from outside.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=scripts/lib/fts.sh
+source scripts/lib/fts.sh
 
 duration=60 rate=1 scenario=calm_baseline bin=target/release out=out/bench_tak inside=0
 while [ $# -gt 0 ]; do
@@ -34,14 +36,7 @@ for b in mgmot mgmot-sim; do
 done
 
 if [ "$inside" = 0 ]; then
-  if [ ! -x .venv-tak/bin/python ] || ! .venv-tak/bin/python -c "import FreeTAKServer, pytak, lxml" 2>/dev/null; then
-    echo "== .venv-tak: FreeTAKServer 2.2.1 and pytak 7.6.1 (PyPI)"
-    python3 -m venv .venv-tak
-    # OpenTelemetry 1.24.0: with the newer release pip picks, FreeTAKServer's CoT services die
-    # at start ("property 'span_exporter' of 'BatchSpanProcessor' object has no setter").
-    .venv-tak/bin/pip install -q --disable-pip-version-check FreeTAKServer==2.2.1 \
-      opentelemetry-api==1.24.0 opentelemetry-sdk==1.24.0 pytak==7.6.1 lxml==6.2.0
-  fi
+  fts_venv
   command -v unshare >/dev/null || { echo "bench_tak: needs unshare (util-linux)" >&2; exit 1; }
   flags=(--mount --net --propagation private)
   [ "$(id -u)" -eq 0 ] || flags=(--user --map-root-user "${flags[@]}")
@@ -51,34 +46,14 @@ if [ "$inside" = 0 ]; then
 fi
 
 # --- inside the namespace ---
-ip link set lo up 2>/dev/null || python3 - <<'PY'
-import fcntl, socket, struct
-s = socket.socket(); ifr = struct.pack("16sH", b"lo", 0)
-flags = struct.unpack("16sH", fcntl.ioctl(s, 0x8913, ifr))[1]
-fcntl.ioctl(s, 0x8914, struct.pack("16sH", b"lo", flags | 1))
-PY
-mount -t tmpfs tmpfs /opt
-mount -t tmpfs tmpfs /var/log
-mkdir -p /opt/fts
+fts_namespace_setup
 out="$(cd "$out" && pwd)"
 rm -f "$out"/*.jsonl "$out"/*.json "$out"/*.log "$out"/*.toml
 py=.venv-tak/bin/python
 
-echo "== FreeTAKServer 2.2.1 on 127.0.0.1 (CoT TCP 8087)"
-(cd /opt/fts && FTS_FIRST_START=false exec "$OLDPWD/$py" -m FreeTAKServer.controllers.services.FTS \
-  -CoTIP 127.0.0.1 -SSLCoTIP 127.0.0.1 -DataPackageIP 127.0.0.1 -SSLDataPackageIP 127.0.0.1 \
-  -RestAPIIP 127.0.0.1 -AutoStart True) > "$out/fts.log" 2>&1 &
-fts=$!
-cleanup() { kill "${client:-}" "${mgmot_pid:-}" 2>/dev/null || true; pkill -P "$fts" 2>/dev/null || true; kill "$fts" 2>/dev/null || true; }
+cleanup() { kill "${client:-}" "${mgmot_pid:-}" 2>/dev/null || true; fts_stop; }
 trap cleanup EXIT
-for i in $(seq 1 60); do
-  if $py -c "import socket; socket.create_connection(('127.0.0.1', 8087), 0.5).close()" 2>/dev/null; then break; fi
-  [ "$i" = 60 ] && { echo "bench_tak: FreeTAKServer did not open 8087 in 30 s (see $out/fts.log)" >&2; exit 1; }
-  sleep 0.5
-done
-# A connection that sends nothing holds up other new connections for 60 s on FTS: the probe
-# above closed at once; give the server a moment to forget it.
-sleep 2
+fts_start bench_tak "$out/fts.log" 30
 
 echo "== pytak client on tcp://127.0.0.1:8087"
 $py scripts/bench_tak_client.py --url tcp://127.0.0.1:8087 --out "$out/received.jsonl" \
