@@ -67,8 +67,9 @@ else
     render() { # split scenario seed
         local out="$DATA/$1/${2}_s$3"
         [[ -f "$out/annotations.json" ]] && return 0
-        local toml="$DATA/scenarios/${2}_s$3.toml" every
-        every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "${1/tuning/train}" --out "$toml" --frames "$PER_SEQ")"
+        local toml="$DATA/scenarios/${2}_s$3.toml" every variant=$1
+        [[ $1 == tuning ]] && variant=train  # tuning seeds: variants of the training conditions
+        every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$variant" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
     }

@@ -146,16 +146,7 @@ pub struct ObjectIds {
 
 /// The SeaDronesSee name of MGMOT_TRACK's class (its category id; 0 and others: `unknown`).
 fn category_name(id: u32) -> &'static str {
-    [
-        ObjectClass::Swimmer,
-        ObjectClass::Boat,
-        ObjectClass::Jetski,
-        ObjectClass::LifeSavingAppliance,
-        ObjectClass::Buoy,
-    ]
-    .into_iter()
-    .find(|c| c.category_id() == id)
-    .map_or("unknown", ObjectClass::name)
+    ObjectClass::from_category_id(id).map_or("unknown", ObjectClass::name)
 }
 
 impl TrackMonitor {

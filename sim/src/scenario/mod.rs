@@ -533,6 +533,20 @@ pub enum ObjectClass {
 }
 
 impl ObjectClass {
+    /// Every class, in SeaDronesSee category order.
+    pub const ALL: [ObjectClass; 5] = [
+        ObjectClass::Swimmer,
+        ObjectClass::Boat,
+        ObjectClass::Jetski,
+        ObjectClass::LifeSavingAppliance,
+        ObjectClass::Buoy,
+    ];
+
+    /// The class of a SeaDronesSee / COCO category id, if it is one.
+    pub fn from_category_id(id: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.category_id() == id)
+    }
+
     /// The SeaDronesSee / COCO category id.
     pub fn category_id(self) -> u32 {
         match self {
