@@ -643,10 +643,12 @@ impl Fuser {
         }
         self.last_step_s = Some(now_s);
         self.observe_drift(now_s);
-        self.associate(now_s);
+        // Each fused track is predicted once per step: association's predictions stand for
+        // the tracks it left unchanged, and the updated estimates are what merging compares.
+        let predicted = self.associate(now_s);
         self.retire_left();
-        self.update_estimates(now_s);
-        self.merge_agreeing(now_s);
+        let seen = self.update_estimates(now_s, predicted);
+        self.merge_agreeing(now_s, &seen);
         self.prune(now_s);
     }
 
@@ -665,21 +667,26 @@ impl Fuser {
     }
 
     /// Live drone tracks not yet in a fused track join one (or start their own), one drone
-    /// at a time so that two drones' new tracks of one object meet in one step.
-    fn associate(&mut self, now_s: f64) {
+    /// at a time so that two drones' new tracks of one object meet in one step. Returns the
+    /// predictions at `now_s` of the fused tracks whose members it did not change.
+    fn associate(&mut self, now_s: f64) -> BTreeMap<u64, Prediction> {
         let mut new: BTreeMap<u8, Vec<MemberKey>> = BTreeMap::new();
         for (k, m) in &self.members {
             if m.fused.is_none() && self.is_live(m, now_s) {
                 new.entry(k.0).or_default().push(*k);
             }
         }
+        // Predicted once; a fused track a drone's tracks joined (or that one started) is
+        // predicted again for the next drone.
+        let mut predicted: BTreeMap<u64, Prediction> = BTreeMap::new();
         let (mut cost, mut pairs) = (Vec::new(), Vec::new());
         for rows in new.into_values() {
-            let cols: Vec<(u64, Prediction)> = self
-                .fused
-                .iter()
-                .map(|(id, f)| (*id, self.predict(f, now_s)))
-                .collect();
+            for (id, f) in &self.fused {
+                if !predicted.contains_key(id) {
+                    predicted.insert(*id, self.predict(f, now_s));
+                }
+            }
+            let cols: Vec<(u64, &Prediction)> = predicted.iter().map(|(id, p)| (*id, p)).collect();
             cost.clear();
             for k in &rows {
                 let m = &self.members[k];
@@ -704,6 +711,7 @@ impl Fuser {
                     Some(id) => id,
                     None => self.start_fused(*k, now_s),
                 };
+                predicted.remove(&id);
                 if let Some(m) = self.members.get_mut(k) {
                     m.fused = Some(id);
                 }
@@ -712,6 +720,7 @@ impl Fuser {
                 }
             }
         }
+        predicted
     }
 
     fn start_fused(&mut self, k: MemberKey, now_s: f64) -> u64 {
@@ -736,7 +745,14 @@ impl Fuser {
         id
     }
 
-    fn update_estimates(&mut self, now_s: f64) {
+    /// Moves every fused track a live drone track sees to its estimate at `now_s`
+    /// (`predicted`: predictions already made at `now_s` of tracks unchanged since). Returns
+    /// the ids of those tracks.
+    fn update_estimates(
+        &mut self,
+        now_s: f64,
+        mut predicted: BTreeMap<u64, Prediction>,
+    ) -> Vec<u64> {
         let updates: Vec<(u64, Prediction, Option<f64>)> = self
             .fused
             .iter()
@@ -746,10 +762,14 @@ impl Fuser {
                     .iter()
                     .filter_map(|k| self.members.get(k)?.last_seen_s)
                     .fold(f.last_seen_s, |a, b| later(a, Some(b)));
-                (*id, self.predict(f, now_s), seen)
+                let p = predicted
+                    .remove(id)
+                    .unwrap_or_else(|| self.predict(f, now_s));
+                (*id, p, seen)
             })
             .filter(|(_, p, _)| p.live > 0)
             .collect();
+        let ids = updates.iter().map(|(id, _, _)| *id).collect();
         for (id, p, seen) in updates {
             if let Some(f) = self.fused.get_mut(&id) {
                 f.pos = p.pos;
@@ -762,16 +782,16 @@ impl Fuser {
                 }
             }
         }
+        ids
     }
 
     /// Merges two seen fused tracks of one class that have stayed inside the gate for
-    /// `merge_after_s`, unless one drone saw both at the same time.
-    fn merge_agreeing(&mut self, now_s: f64) {
-        let seen: Vec<(u64, &Fused, Prediction)> = self
-            .fused
+    /// `merge_after_s`, unless one drone saw both at the same time. `seen`: the ids of the
+    /// fused tracks a live drone track sees, their estimates updated to `now_s`.
+    fn merge_agreeing(&mut self, now_s: f64, seen: &[u64]) {
+        let seen: Vec<(u64, &Fused)> = seen
             .iter()
-            .map(|(id, f)| (*id, f, self.predict(f, now_s)))
-            .filter(|(_, _, p)| p.live > 0)
+            .filter_map(|id| Some((*id, self.fused.get(id)?)))
             .collect();
         let mut close_now = BTreeSet::new();
         for (i, a) in seen.iter().enumerate() {
@@ -779,7 +799,7 @@ impl Fuser {
                 if a.1.class_id != b.1.class_id || !self.compatible(&a.1.members, &b.1.members) {
                     continue;
                 }
-                if self.gated((a.2.pos, a.2.cov), (b.2.pos, b.2.cov)).is_some() {
+                if self.gated((a.1.pos, a.1.cov), (b.1.pos, b.1.cov)).is_some() {
                     close_now.insert((a.0, b.0));
                 }
             }
