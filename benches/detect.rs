@@ -25,7 +25,7 @@ fn bench_detect(c: &mut Criterion) {
         .parse()
         .expect("MGMOT_BENCH_BACKEND must be tract or onnxruntime");
     let frame =
-        image::open(root.join("tests/fixtures/detect/sim_leave_and_return_s100002_000001.jpg"))
+        image::open(root.join("tests/fixtures/detect/sim_heldout_a.jpg"))
             .expect("fixture frame")
             .to_rgb8();
     let mut group = c.benchmark_group(format!("detect/{backend}"));
