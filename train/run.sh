@@ -10,8 +10,10 @@
 #   MGMOT_TRAIN_MINUTES  wall-clock training budget, stage 1         [40]
 #   MGMOT_TRAIN_FT_MINUTES  class-balanced fine-tune, stage 2        [15]
 #   MGMOT_TRAIN_SCALE_MINUTES  fine-tune at the runtime's scale, stage 3 [45]
+#   MGMOT_TRAIN_MORE_MINUTES  the same on twice the frames, stage 4    [50]
 #   MGMOT_TRAIN_RESUME   1 = keep an existing stage-1 checkpoint       [0]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
+#   MGMOT_TRAIN_EXTRA_FRAMES  minimum frames of further training seeds, for stage 4 [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
 #   MGMOT_TRAIN_THREADS  torch threads                               [1]
 #   MGMOT_TRAIN_INIT_REV the commit whose models/mgmot-det-fp32.onnx starts training, or none [8817652]
@@ -21,7 +23,8 @@
 #   MGMOT_SIM            a prebuilt mgmot-sim binary  [built: target/release/mgmot-sim]
 #   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
 # Seeds and splits (renders): training uses seeds 1, 2, ... (every scenario per seed) until
-# MGMOT_TRAIN_FRAMES frames exist; tuning seeds 50001 and 50002 (training conditions, for
+# MGMOT_TRAIN_FRAMES frames exist (train/), then the next seeds until MGMOT_TRAIN_EXTRA_FRAMES
+# more exist (train-extra/, stage 4 only; seeds 13-24 at the defaults); tuning seeds 50001 and 50002 (training conditions, for
 # choosing between recipes); held-out seeds 100001 and 100002 (same conditions as
 # training, disjoint seeds); held-out conditions: seeds 200001-200003, each variant drawn from
 # one condition training never saw (rough sea, low sun, the 80-100 m altitude band; see
@@ -33,7 +36,9 @@ ROOT="$(cd "$HERE/.." && pwd)"
 MINUTES="${MGMOT_TRAIN_MINUTES:-40}"
 FT_MINUTES="${MGMOT_TRAIN_FT_MINUTES:-15}"
 SCALE_MINUTES="${MGMOT_TRAIN_SCALE_MINUTES:-45}"
+MORE_MINUTES="${MGMOT_TRAIN_MORE_MINUTES:-50}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
+EXTRA_FRAMES="${MGMOT_TRAIN_EXTRA_FRAMES:-5000}"
 PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
 RUN="$HERE/runs/sim"
 DATA="$HERE/data/sim"
@@ -55,6 +60,7 @@ if [[ -n "${MGMOT_TRAIN_DATA:-}" ]]; then
     # 2'. Real footage in the SeaDronesSee layout: nothing to render.
     "$PY" -c "import data, sys; s = data.load_seadronessee(sys.argv[1], 'train'); print(f'{len(s)} training frames in', sys.argv[1])" "$MGMOT_TRAIN_DATA"
     TRAIN_DATA="$MGMOT_TRAIN_DATA"
+    MORE_DATA=()
     EVAL=("val:$MGMOT_TRAIN_DATA")
 else
     # 2. Data: JPEG sequences rendered by mgmot-sim (1280x720, SeaDronesSee-style JSON).
@@ -68,7 +74,8 @@ else
         local out="$DATA/$1/${2}_s$3"
         [[ -f "$out/annotations.json" ]] && return 0
         local toml="$DATA/scenarios/${2}_s$3.toml" every variant=$1
-        [[ $1 == tuning ]] && variant=train  # tuning seeds: variants of the training conditions
+        # tuning seeds and further training seeds: variants of the training conditions
+        [[ $1 == tuning || $1 == train-extra ]] && variant=train
         every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$variant" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
@@ -79,6 +86,11 @@ else
         echo "rendered training seed $seed: $(count_frames "$DATA/train") frames"
         seed=$((seed + 1))
     done
+    while (( $(count_frames "$DATA/train-extra") < EXTRA_FRAMES )); do
+        for sc in "${SCENARIOS[@]}"; do render train-extra "$sc" "$seed"; done
+        echo "rendered further training seed $seed: $(count_frames "$DATA/train-extra") frames"
+        seed=$((seed + 1))
+    done
     for sc in "${SCENARIOS[@]}"; do
         for seed in 100001 100002; do render heldout "$sc" "$seed"; done
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
@@ -86,9 +98,10 @@ else
         # training recipes is done on these, so that the held-out figures stay unseen.
         for seed in 50001 50002; do render tuning "$sc" "$seed"; done
     done
-    echo "frames: train $(count_frames "$DATA/train"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
+    echo "frames: train $(count_frames "$DATA/train"), further training $(count_frames "$DATA/train-extra"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
     "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
     TRAIN_DATA="$DATA/train"
+    MORE_DATA=("$DATA/train-extra")
     EVAL=("tuning:$DATA/tuning" "heldout:$DATA/heldout" "conditions:$DATA/conditions")
 fi
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
@@ -116,11 +129,15 @@ fi
 #     800x448 input (0.62) or, tiled, reads native pixels (1). Views scaled by 0.45-1 only, no
 #     whole-frame views, a little more class balance.
 "$PY" train.py --data "$TRAIN_DATA" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$SCALE_MINUTES" --seed 3 \
-    --lr 1e-3 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage2.pt" --out "$RUN/tinydet.pt"
+    --lr 1e-3 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage2.pt" --out "$RUN/tinydet-stage3.pt"
+# 3d. Stage 3's recipe again at half its learning rate, on the training frames plus as many
+#     again from further seeds (renders; a real dataset's train split alone).
+"$PY" train.py --data "$TRAIN_DATA" "${MORE_DATA[@]}" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MORE_MINUTES" \
+    --seed 4 --lr 5e-4 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage3.pt" --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
-"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 256
+"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 384
 for e in "${EVAL[@]}"; do
     name="${e%%:*}" dir="${e#*:}"
     "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$dir" --split val \
@@ -139,7 +156,7 @@ if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     "$PY" -c "
 import json, sys
 run = sys.argv[1]
-stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet'))}
+stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet-stage3'), (4, 'tinydet'))}
 json.dump(stages, open(sys.argv[2], 'w'), indent=1)
 " "$RUN" "$ROOT/models/training-log.json"
     [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"

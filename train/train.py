@@ -207,7 +207,8 @@ class Batches(torch.utils.data.IterableDataset):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--data", required=True, help="rendered sim sequences, or a SeaDronesSee-layout dataset (see data.py)")
+    ap.add_argument("--data", required=True, nargs="+",
+                    help="rendered sim sequences, or a SeaDronesSee-layout dataset (see data.py); several folders are pooled")
     ap.add_argument("--split", default="train", help="split of a SeaDronesSee-layout dataset")
     ap.add_argument("--out", required=True)
     ap.add_argument("--crop", type=int, default=256)
@@ -239,7 +240,7 @@ def main():
     seed_everything(args.seed)
     torch.set_num_threads(args.threads)
     try:
-        samples = data.load_dataset(Path(args.data), args.split)
+        samples = [s for d in args.data for s in data.load_dataset(Path(d), args.split)]
     except data.DatasetError as e:
         raise SystemExit(f"error: {e}") from e
     if not samples:
