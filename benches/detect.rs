@@ -24,10 +24,9 @@ fn bench_detect(c: &mut Criterion) {
         .unwrap_or_else(|_| "tract".into())
         .parse()
         .expect("MGMOT_BENCH_BACKEND must be tract or onnxruntime");
-    let frame =
-        image::open(root.join("tests/fixtures/detect/sim_heldout_a.jpg"))
-            .expect("fixture frame")
-            .to_rgb8();
+    let frame = image::open(root.join("tests/fixtures/detect/sim_heldout_a.jpg"))
+        .expect("fixture frame")
+        .to_rgb8();
     let mut group = c.benchmark_group(format!("detect/{backend}"));
     group.sample_size(30);
     group.measurement_time(Duration::from_secs(6));
