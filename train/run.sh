@@ -80,17 +80,26 @@ else
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
     }
-    seed=1
-    while (( $(count_frames "$DATA/train") < FRAMES )); do
-        for sc in "${SCENARIOS[@]}"; do render train "$sc" "$seed"; done
-        echo "rendered training seed $seed: $(count_frames "$DATA/train") frames"
-        seed=$((seed + 1))
-    done
-    while (( $(count_frames "$DATA/train-extra") < EXTRA_FRAMES )); do
-        for sc in "${SCENARIOS[@]}"; do render train-extra "$sc" "$seed"; done
-        echo "rendered further training seed $seed: $(count_frames "$DATA/train-extra") frames"
-        seed=$((seed + 1))
-    done
+    render_until() { # split min_frames first_seed: every scenario per seed until the split has min_frames
+        local seed=$3
+        while (( $(count_frames "$DATA/$1") < $2 )); do
+            for sc in "${SCENARIOS[@]}"; do render "$1" "$sc" "$seed"; done
+            echo "rendered $1 seed $seed: $(count_frames "$DATA/$1") frames"
+            seed=$((seed + 1))
+        done
+    }
+    last_seed() { # the largest seed rendered into split $1 (0 when none)
+        local max=0 d s
+        for d in "$DATA/$1"/*_s*; do
+            [[ -d $d ]] || continue
+            s=${d##*_s}
+            (( s > max )) && max=$s
+        done
+        echo "$max"
+    }
+    render_until train "$FRAMES" 1
+    # The further seeds follow the training ones, also when train/ was complete before this run.
+    render_until train-extra "$EXTRA_FRAMES" $(( $(last_seed train) + 1 ))
     for sc in "${SCENARIOS[@]}"; do
         for seed in 100001 100002; do render heldout "$sc" "$seed"; done
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
