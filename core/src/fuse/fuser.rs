@@ -682,9 +682,9 @@ impl Fuser {
         let (mut cost, mut pairs) = (Vec::new(), Vec::new());
         for rows in new.into_values() {
             for (id, f) in &self.fused {
-                if !predicted.contains_key(id) {
-                    predicted.insert(*id, self.predict(f, now_s));
-                }
+                predicted
+                    .entry(*id)
+                    .or_insert_with(|| self.predict(f, now_s));
             }
             let cols: Vec<(u64, &Prediction)> = predicted.iter().map(|(id, p)| (*id, p)).collect();
             cost.clear();
