@@ -124,12 +124,15 @@ fn calm(seconds: f64) -> Scenario {
     Scenario::new("calm_baseline", seconds).size(640, 360)
 }
 
-/// A scenario run in lockstep with the replay detector and `cot` as the CoT output; returns
-/// mgmot's stats and the truth.
+/// A scenario run with the replay detector and `cot` as the CoT output, in lockstep or in real
+/// time; returns mgmot's stats and the truth. A test whose output waits on the wall clock (a
+/// reconnection's back-off) runs in real time: in lockstep a fast machine plays the whole
+/// scenario within one back-off, and what it checks depends on the machine's speed.
 fn run_with_cot(
     dir: &TestDir,
     cot: CotConfig,
     scenario: &Scenario,
+    realtime: bool,
 ) -> (serde_json::Value, Vec<Truth>) {
     scenario.detections(&dir.join("dets.json"));
     let port = free_udp_port();
@@ -148,7 +151,7 @@ fn run_with_cot(
     let config = dir.write_config("run.toml", &c);
     let tap = Relay::start(port);
     let mut sim = scenario
-        .run(false, tap.listen_port, &dir.join("frames.sock"))
+        .run(realtime, tap.listen_port, &dir.join("frames.sock"))
         .arg("--truth-out")
         .arg(dir.join("truth"))
         .spawn();
@@ -214,7 +217,7 @@ fn tcp_events_pass_the_schema_lie_at_true_objects_and_survive_a_dropped_connecti
         rate_hz: 2.0,
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(&dir, cot, &calm(12.0));
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(12.0), true);
     // mgmot closed the second connection on exit: the server thread ends.
     let _ = server.join();
     let connections = connections.lock().expect("lock").clone();
@@ -324,7 +327,7 @@ fn multicast_events_reach_a_member_of_the_group_on_loopback() {
         multicast_interface: "127.0.0.1".into(),
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0));
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0), false);
     std::thread::sleep(Duration::from_millis(300));
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let _ = thread.join();
@@ -368,7 +371,7 @@ fn an_unreachable_server_never_holds_up_tracking() {
         url: format!("tcp://127.0.0.1:{port}"),
         ..CotConfig::default()
     };
-    let (stats, _) = run_with_cot(&dir, cot, &calm(6.0));
+    let (stats, _) = run_with_cot(&dir, cot, &calm(6.0), false);
     let log = std::fs::read_to_string(dir.join("mgmot.log")).unwrap_or_default();
     assert!(log.contains("CoT: cannot reach the server"), "{log}");
     assert!(stats["track_messages"].as_u64() > Some(0), "{stats}");
@@ -550,7 +553,7 @@ fn tls_with_a_client_certificate_and_a_server_of_another_ca() {
         tls: Some(tls.clone()),
         ..CotConfig::default()
     };
-    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0));
+    let (stats, truth) = run_with_cot(&dir, cot, &calm(8.0), false);
     std::thread::sleep(Duration::from_millis(300));
     let streams = received.lock().expect("lock").clone();
     let events: Vec<String> = streams.iter().flat_map(|s| split(s)).collect();
@@ -586,7 +589,7 @@ fn tls_with_a_client_certificate_and_a_server_of_another_ca() {
         .iter()
         .map(|s| split(s).len())
         .sum::<usize>();
-    let (stats, _) = run_with_cot(&other, cot, &calm(4.0));
+    let (stats, _) = run_with_cot(&other, cot, &calm(4.0), false);
     let log = std::fs::read_to_string(other.join("mgmot.log")).unwrap_or_default();
     assert!(log.contains("TLS handshake"), "{log}");
     assert_eq!(stats["cot"]["sent"].as_u64(), Some(0), "{stats}");
