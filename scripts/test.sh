@@ -10,27 +10,39 @@ if [ ! -d ../shared/data/seadronessee ]; then
   exit 1
 fi
 
-# Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv. The tests that
-# need an outside tool (these, ONNX Runtime below) fail, naming it, when it is missing: none of
-# them passes as a skip.
-if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink, PIL, onnx, lxml" 2>/dev/null; then
-  echo "== python venv for the cross-checks (.venv)"
-  if ! python3 -m venv .venv 2>/dev/null; then
-    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq python3-venv >/dev/null
-    python3 -m venv .venv
+# The outside tools the tests use are fetched in the background (network and disk) while fmt,
+# clippy and the test build below keep both cores busy; the job's log is printed if it fails.
+#  - Python cross-checks (py-motmetrics, pymavlink) run from a project virtualenv, .venv. The
+#    tests that need an outside tool (these, ONNX Runtime below) fail, naming it, when it is
+#    missing: none of them passes as a skip.
+#  - Debian's Chromium, headless: tests/review.rs opens `mgmot review`'s report in it and
+#    tests/ground.rs the ground's live map (both fail, naming it, without it).
+#  - .venv-tak: FreeTAKServer and pytak for the TAK bench at the end (scripts/lib/fts.sh).
+# apt-get runs in this one job only, so no two installs wait on dpkg's lock.
+prepare() {
+  local SUDO="" apt=()
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  command -v chromium >/dev/null 2>&1 || apt+=(chromium)
+  python3 -c "import venv, ensurepip" 2>/dev/null || apt+=(python3-venv)
+  if [ ${#apt[@]} -gt 0 ]; then
+    echo "== apt-get install ${apt[*]}"
+    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${apt[@]}" >/dev/null
   fi
-  .venv/bin/python3 -m pip install -q --disable-pip-version-check -r scripts/requirements-test.txt
-fi
+  if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import motmetrics, pymavlink, PIL, onnx, lxml" 2>/dev/null; then
+    echo "== python venv for the cross-checks (.venv)"
+    python3 -m venv .venv
+    .venv/bin/python3 -m pip install -q --disable-pip-version-check -r scripts/requirements-test.txt
+  fi
+  # shellcheck source=scripts/lib/fts.sh
+  source scripts/lib/fts.sh
+  fts_venv
+}
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+echo "== in the background: chromium, .venv, .venv-tak (log: $work/prepare.log)"
+prepare > "$work/prepare.log" 2>&1 &
+prepare_pid=$!
 export PATH="$PWD/.venv/bin:$PATH"
-
-# Debian's Chromium, headless: tests/review.rs opens `mgmot review`'s report in it (and fails,
-# naming it, without it).
-if ! command -v chromium >/dev/null 2>&1; then
-  echo "== chromium (tests/review.rs, tests/ground.rs)"
-  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
-fi
 
 # ONNX Runtime (from the onnxruntime wheel on PyPI) for the tests that need it (the
 # tract/onnxruntime parity and default-backend tests in tests/detect_cli.rs).
@@ -59,8 +71,8 @@ echo "== cargo test (release)"
 # Overflow checks are on in release (Cargo.toml). The runtime's loopback tests drive the
 # simulator binary this same build produces.
 export MGMOT_SIM_BIN="$PWD/target/release/mgmot-sim"
-# The loopback tests start a simulator and mgmot each; one test at a time keeps them within
-# their real-time budgets on a 2-core machine.
+# The loopback tests start a simulator and mgmot each; one test at a time in each lane keeps
+# them within their real-time budgets on a 2-core machine.
 export RUST_TEST_THREADS=1
 # The fuzz targets (fuzz/README.md, tests/fuzz_decoders.rs) run inside the suite on a million
 # generated inputs each (about 15 s in all; a separate `cargo test -p mgmot --test main` would
@@ -69,10 +81,49 @@ export RUST_TEST_THREADS=1
 export MGMOT_FUZZ_CASES=1000000
 MGMOT_FUZZ_SEED="0x$(git rev-parse --short=15 HEAD 2>/dev/null || echo 6d676d6f7466757a)"
 export MGMOT_FUZZ_SEED
-MGMOT_FUZZ_SUMMARY="$(mktemp)"
-export MGMOT_FUZZ_SUMMARY
-trap 'rm -f "$MGMOT_FUZZ_SUMMARY"' EXIT
-cargo test --workspace --release
+export MGMOT_FUZZ_SUMMARY="$work/fuzz_summary"
+# Build every test first (the whole workspace: one feature resolution, the demo's build reused).
+cargo test --workspace --release --no-run --message-format=json > "$work/build.json"
+main_tests="$(python3 - "$work/build.json" "$PWD/tests/main.rs" <<'PY'
+import json, sys
+for line in open(sys.argv[1]):
+    m = json.loads(line) if line.startswith("{") else {}
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["src_path"] == sys.argv[2]:
+        print(m["executable"])
+PY
+)"
+[ -x "$main_tests" ] || { echo "test: could not find the tests/main.rs test binary in cargo's build output" >&2; exit 1; }
+if ! wait "$prepare_pid"; then
+  cat "$work/prepare.log" >&2
+  echo "test: installing chromium or the Python venvs (.venv, .venv-tak) failed; its log is above" >&2
+  exit 1
+fi
+cat "$work/prepare.log"
+# Two lanes, as the tests mostly wait on real time (a scenario played at 30 frames/s) rather
+# than on the CPU: the long flights whose processes use little CPU (`ground::`, two drones for
+# 180 s and 90 s with the replay detector, about 16 % of the two cores; `runtime_link::`, one
+# drone with the replay detector) run in a second lane beside the rest of the suite, which
+# holds the tests that run the real detector in real time. Each lane runs one test at a time.
+# The first lane skips the second's tests by their exact names, listed from the binary (a
+# plain `--skip ground::` would also skip the unit tests of src/ground/).
+lane_areas=(ground:: runtime_link::)
+mapfile -t lane_tests < <("$main_tests" --list "${lane_areas[@]}" | sed -n 's/: test$//p')
+[ ${#lane_tests[@]} -gt 0 ] || { echo "test: no tests in ${lane_areas[*]}" >&2; exit 1; }
+echo "== cargo test (release), in two lanes: ${#lane_tests[@]} tests of tests/main.rs [${lane_areas[*]}] beside the rest (log: $work/lane.log)"
+"$main_tests" --exact "${lane_tests[@]}" > "$work/lane.log" 2>&1 &
+lane_pid=$!
+skips=()
+for t in "${lane_tests[@]}"; do skips+=(--skip "$t"); done
+rest=0
+cargo test --workspace --release -- --exact "${skips[@]}" || rest=$?
+lane=0
+wait "$lane_pid" || lane=$?
+echo "== the second lane (tests/main.rs: ${lane_areas[*]})"
+cat "$work/lane.log"
+if [ "$rest" -ne 0 ] || [ "$lane" -ne 0 ]; then
+  echo "test: cargo test failed (the suite: exit $rest; the second lane: exit $lane)" >&2
+  exit 1
+fi
 echo "== fuzz: 1,000,000 generated inputs per target (MGMOT_FUZZ_SEED=$MGMOT_FUZZ_SEED)"
 cat "$MGMOT_FUZZ_SUMMARY"
 # train/'s data path without PyTorch: a rendered sequence laid out as SeaDronesSee and read back.
