@@ -56,6 +56,11 @@ pub struct FuseParams {
     pub drift: DriftParams,
     /// A track's velocity is a drift sample once the track has been reported this long (s).
     pub drift_min_age_s: f64,
+    /// A drone track that comes back after a gap far outside its fused track's gate is held
+    /// this long (s) before the fused track follows it: while held it moves nothing, and it
+    /// leaves as soon as another live track of the fused track, or another fused track, says
+    /// the drone's ReID took it for the wrong object. 0: followed at once.
+    pub reacquire_hold_s: f64,
 }
 
 impl Default for FuseParams {
@@ -71,6 +76,7 @@ impl Default for FuseParams {
             min_extrapolation_speed_m_s: 1.0,
             drift: DriftParams::default(),
             drift_min_age_s: 5.0,
+            reacquire_hold_s: 5.0,
         }
     }
 }
@@ -99,6 +105,7 @@ impl FuseParams {
                 self.min_extrapolation_speed_m_s,
             ),
             ("drift_min_age_s", self.drift_min_age_s),
+            ("reacquire_hold_s", self.reacquire_hold_s),
             ("drift.min_sample_s", self.drift.min_sample_s),
             ("drift.max_vel_std_m_s", self.drift.max_vel_std_m_s),
         ];
@@ -143,6 +150,16 @@ pub struct Report {
     /// The drone's ReID decision is still pending (MGMOT_TRACK_FLAGS_PROVISIONAL): such a
     /// report is ignored, its id may still change.
     pub provisional: bool,
+}
+
+/// The picture's verdict on a drone track that came back after a gap.
+enum Reacquired {
+    /// Where its fused track is: the same object.
+    Inside,
+    /// The picture says it is another object: it leaves its fused track.
+    Wrong,
+    /// Far from its fused track, and nothing says otherwise yet.
+    Unconfirmed,
 }
 
 /// A fused id retired by a merge, and the id it lives on as.
@@ -222,6 +239,9 @@ struct Member {
     last_seen_s: Option<f64>,
     tracked: bool,
     fused: Option<u64>,
+    /// Came back after a gap far from its fused track and held there until this time (s):
+    /// it neither moves its fused track nor keeps another track of its drone out of one.
+    held_until_s: Option<f64>,
 }
 
 impl Member {
@@ -256,6 +276,8 @@ struct Fused {
     first_seen_s: Option<f64>,
     last_seen_s: Option<f64>,
     merged_from: Vec<u64>,
+    /// Every drone that ever had a track in it.
+    seen_by: BTreeSet<u8>,
 }
 
 /// A fused track's position now, and who sees it.
@@ -366,6 +388,7 @@ impl Fuser {
                         last_seen_s: r.tracked.then_some(r.time_s),
                         tracked: r.tracked,
                         fused: None,
+                        held_until_s: None,
                     },
                 );
             }
@@ -374,10 +397,7 @@ impl Fuser {
     }
 
     /// A drone track reported again after a gap (not live) far outside the gate of its fused
-    /// track leaves it and is associated anew when the ground's picture says otherwise: another
-    /// drone sees the fused track's object now, or another fused track is where the drone put
-    /// it (the drone's long-term ReID took it for the wrong object). Otherwise the fused track
-    /// follows it (the object moved more than the drift says).
+    /// track (see [`Fuser::reacquired_verdict`]) leaves it at once, is held, or stays.
     fn check_reacquired(&mut self, key: MemberKey, pos: Vector2<f64>, var: f64, time_s: f64) {
         let Some(m) = self.members.get(&key) else {
             return;
@@ -385,35 +405,90 @@ impl Fuser {
         let Some(fid) = m.fused.filter(|_| !self.is_live(m, time_s)) else {
             return;
         };
+        match self.reacquired_verdict(key, fid, pos, var, m.class_id, time_s) {
+            Reacquired::Inside => {}
+            Reacquired::Wrong => self.leave(key, fid, time_s),
+            Reacquired::Unconfirmed => {
+                if let Some(m) = self.members.get_mut(&key) {
+                    let hold = self.params.reacquire_hold_s;
+                    m.held_until_s = (hold > 0.0).then_some(time_s + hold);
+                }
+            }
+        }
+    }
+
+    /// What the ground's picture says of drone track `key` of fused track `fid`, at `pos`
+    /// (variance `var`) at `now_s` after a gap. The fused track's estimate is made from its
+    /// other, unheld tracks or, when none is live, carried from before the gap.
+    /// - **Wrong** when the picture says it is another object: it is outside the fused
+    ///   track's gate while another live, unheld track of the fused track sees its object
+    ///   now, or another fused track of its class that could take it fits it better (the
+    ///   drone's long-term ReID took it for the wrong object: seen when a drone came back on a
+    ///   group of swimmers and shifted its ids by one).
+    /// - **Inside** the gate of its fused track, and of no other fused track of its class: the
+    ///   same object.
+    /// - Otherwise **unconfirmed**: far from its fused track with nothing there to say
+    ///   otherwise (the object may have moved more than the drift says, and the drone's ReID
+    ///   knows more of that track's past than the drift does), or inside the gates of
+    ///   several fused tracks (after a long gap the gates are wide, and a neighbour's may
+    ///   fit better once the tracks that keep it from this one have come back).
+    fn reacquired_verdict(
+        &self,
+        key: MemberKey,
+        fid: u64,
+        pos: Vector2<f64>,
+        var: f64,
+        class_id: u32,
+        now_s: f64,
+    ) -> Reacquired {
         let Some(f) = self.fused.get(&fid) else {
-            return;
+            return Reacquired::Inside;
         };
         let me = (pos, Matrix2::identity() * var);
-        let p = self.predict(f, time_s);
-        if self.gated(me, (p.pos, p.cov)).is_some() {
-            return;
+        let p = self.predict(f, now_s);
+        let own = self.gated(me, (p.pos, p.cov));
+        // Another live, unheld track of the fused track: it says where the object is now, and
+        // one of the same drone says (the drone's own tracker) that this is another object.
+        let contradicted = f.members.iter().any(|k| {
+            *k != key
+                && (own.is_none() || k.0 == key.0)
+                && self
+                    .members
+                    .get(k)
+                    .is_some_and(|o| o.held_until_s.is_none() && self.is_live(o, now_s))
+        });
+        if contradicted {
+            return Reacquired::Wrong;
         }
-        // Nobody says otherwise (no other drone sees the fused track's object now, and no
-        // other fused track is where the drone put it): the fused track follows the drone's
-        // ReID, which knows more of that track's past than the drift does.
-        let contradicted = f
-            .members
-            .iter()
-            .any(|k| k.0 != key.0 && self.members.get(k).is_some_and(|o| self.is_live(o, time_s)));
-        let lands_elsewhere = || {
-            let single = BTreeSet::from([key]);
-            self.fused.iter().any(|(id, g)| {
-                *id != fid && g.class_id == m.class_id && self.compatible(&single, &g.members) && {
-                    let q = self.predict(g, time_s);
-                    self.gated(me, (q.pos, q.cov)).is_some()
-                }
-            })
-        };
-        if !contradicted && !lands_elsewhere() {
-            return;
+        let single = BTreeSet::from([key]);
+        let mut ambiguous = false;
+        for (id, g) in &self.fused {
+            if *id == fid || g.class_id != class_id {
+                continue;
+            }
+            let q = self.predict(g, now_s);
+            let Some(d2) = self.gated(me, (q.pos, q.cov)) else {
+                continue;
+            };
+            if self.compatible(&single, &g.members, true) && own.is_none_or(|o| d2 < o) {
+                return Reacquired::Wrong;
+            }
+            ambiguous = true;
         }
+        if own.is_some() && !ambiguous {
+            Reacquired::Inside
+        } else {
+            Reacquired::Unconfirmed
+        }
+    }
+
+    /// Drone track `key` leaves fused track `fid` at `now_s` and is associated anew, as a
+    /// track that starts now: its past belongs to the object it followed before.
+    fn leave(&mut self, key: MemberKey, fid: u64, now_s: f64) {
         if let Some(m) = self.members.get_mut(&key) {
             m.fused = None;
+            m.held_until_s = None;
+            m.first_s = now_s;
         }
         if let Some(f) = self.fused.get_mut(&fid) {
             f.members.remove(&key);
@@ -421,12 +496,46 @@ impl Fuser {
         self.left.push((fid, key));
     }
 
+    /// Decides on the held drone tracks at `now_s`: one now inside its fused track's gate is
+    /// released, one the picture now contradicts leaves, one held for `reacquire_hold_s` is
+    /// released and its fused track follows it.
+    fn decide_held(&mut self, now_s: f64) {
+        let held: Vec<(MemberKey, u64, f64)> = self
+            .members
+            .iter()
+            .filter_map(|(k, m)| Some((*k, m.fused?, m.held_until_s?)))
+            .collect();
+        for (key, fid, until) in held {
+            let Some(m) = self.members.get(&key) else {
+                continue;
+            };
+            let (pos, var) = m.predict(now_s, &self.params);
+            let verdict = self.reacquired_verdict(key, fid, pos, var, m.class_id, now_s);
+            match verdict {
+                Reacquired::Wrong => self.leave(key, fid, now_s),
+                Reacquired::Unconfirmed if now_s < until && self.is_live(m, now_s) => {}
+                Reacquired::Inside | Reacquired::Unconfirmed => {
+                    if let Some(m) = self.members.get_mut(&key) {
+                        m.held_until_s = None;
+                    }
+                }
+            }
+        }
+    }
+
     /// A fused track that a re-acquired drone track left with no member is retired into the
-    /// fused track that drone track joined.
+    /// fused track that drone track joined, when that drone alone ever saw it (nobody else
+    /// says its object was not the one the drone's ReID took it for). One that several drones
+    /// saw stays, carried with the drift: the ground's picture says its object is still there
+    /// (seen when both drones' ReID moved their tracks of one swimmer onto a neighbour, and
+    /// the swimmer's next sightings rejoined its fused id).
     fn retire_left(&mut self) {
         for (fid, key) in std::mem::take(&mut self.left) {
             let into = self.members.get(&key).and_then(|m| m.fused);
-            let empty = self.fused.get(&fid).is_some_and(|f| f.members.is_empty());
+            let empty = self
+                .fused
+                .get(&fid)
+                .is_some_and(|f| f.members.is_empty() && f.seen_by.len() <= 1);
             if let (true, Some(into)) = (empty, into) {
                 if into != fid {
                     self.fused.remove(&fid);
@@ -456,6 +565,7 @@ impl Fuser {
                     m.fused = Some(f_old);
                     if let Some(f) = self.fused.get_mut(&f_old) {
                         f.members.insert(new);
+                        f.seen_by.insert(new.0);
                     }
                 }
             },
@@ -473,6 +583,7 @@ impl Fuser {
                 }
                 if let Some(f) = self.fused.get_mut(&f_old) {
                     f.members.insert(new);
+                    f.seen_by.insert(new.0);
                 }
             }
         }
@@ -491,6 +602,7 @@ impl Fuser {
         }
         if let Some(f) = self.fused.get_mut(&keep) {
             f.members.extend(g.members.iter().copied());
+            f.seen_by.extend(g.seen_by.iter().copied());
             // The more recent estimate stands for the merged track until the next step.
             if g.est_time_s > f.est_time_s {
                 f.pos = g.pos;
@@ -523,12 +635,24 @@ impl Fuser {
     }
 
     /// Whether the tracks of `a` and `b` can be one object: every pair of tracks of one
-    /// drone is [`Fuser::sequential`].
-    fn compatible(&self, a: &BTreeSet<MemberKey>, b: &BTreeSet<MemberKey>) -> bool {
+    /// drone is [`Fuser::sequential`]. With `skip_held`, a held track (see
+    /// [`Fuser::reacquired_verdict`]) keeps no track out: for one track joining a fused track,
+    /// not for merging two fused tracks.
+    fn compatible(
+        &self,
+        a: &BTreeSet<MemberKey>,
+        b: &BTreeSet<MemberKey>,
+        skip_held: bool,
+    ) -> bool {
         a.iter().all(|ka| {
             b.iter().filter(|kb| kb.0 == ka.0).all(|kb| {
                 match (self.members.get(ka), self.members.get(kb)) {
-                    (Some(ma), Some(mb)) => Self::sequential(ma, mb),
+                    (Some(ma), Some(mb))
+                        if !skip_held
+                            || (ma.held_until_s.is_none() && mb.held_until_s.is_none()) =>
+                    {
+                        Self::sequential(ma, mb)
+                    }
                     _ => true,
                 }
             })
@@ -552,9 +676,9 @@ impl Fuser {
             .members
             .iter()
             .filter_map(|k| self.members.get(k))
-            .any(|m| m.tracked && self.is_live(m, now_s));
+            .any(|m| m.tracked && m.held_until_s.is_none() && self.is_live(m, now_s));
         for m in f.members.iter().filter_map(|k| self.members.get(k)) {
-            if !self.is_live(m, now_s) || (any_tracked && !m.tracked) {
+            if !self.is_live(m, now_s) || m.held_until_s.is_some() || (any_tracked && !m.tracked) {
                 continue;
             }
             let (pos, var) = m.predict(now_s, p);
@@ -643,6 +767,7 @@ impl Fuser {
         }
         self.last_step_s = Some(now_s);
         self.observe_drift(now_s);
+        self.decide_held(now_s);
         // Each fused track is predicted once per step: association's predictions stand for
         // the tracks it left unchanged, and the updated estimates are what merging compares.
         let predicted = self.associate(now_s);
@@ -694,7 +819,8 @@ impl Fuser {
                 let me = BTreeSet::from([*k]);
                 for (id, pred) in &cols {
                     let f = &self.fused[id];
-                    let allowed = f.class_id == m.class_id && self.compatible(&me, &f.members);
+                    let allowed =
+                        f.class_id == m.class_id && self.compatible(&me, &f.members, true);
                     let c = allowed
                         .then(|| self.gated((pos, Matrix2::identity() * var), (pred.pos, pred.cov)))
                         .flatten();
@@ -717,6 +843,7 @@ impl Fuser {
                 }
                 if let Some(f) = self.fused.get_mut(&id) {
                     f.members.insert(*k);
+                    f.seen_by.insert(k.0);
                 }
             }
         }
@@ -733,6 +860,7 @@ impl Fuser {
             Fused {
                 class_id: m.class_id,
                 members: BTreeSet::new(),
+                seen_by: BTreeSet::new(),
                 pos,
                 cov: Matrix2::identity() * var,
                 vel: m.vel.unwrap_or_else(Vector2::zeros),
@@ -796,7 +924,9 @@ impl Fuser {
         let mut close_now = BTreeSet::new();
         for (i, a) in seen.iter().enumerate() {
             for b in &seen[i + 1..] {
-                if a.1.class_id != b.1.class_id || !self.compatible(&a.1.members, &b.1.members) {
+                if a.1.class_id != b.1.class_id
+                    || !self.compatible(&a.1.members, &b.1.members, false)
+                {
                     continue;
                 }
                 if self.gated((a.1.pos, a.1.cov), (b.1.pos, b.1.cov)).is_some() {
@@ -1079,7 +1209,8 @@ mod tests {
         let mut f = Fuser::new(FuseParams::default());
         // Drone 2 sees a swimmer for 5 s, then loses it for 40 s; its ReID brings track 5
         // back 40 m on (the swimmer moved more than the drift says). No other drone sees it
-        // and nothing else is there: the fused id follows the drone's track.
+        // and nothing else is there: the fused id follows the drone's track once it has been
+        // held for reacquire_hold_s (5 s) with nothing saying otherwise.
         for k in 0..5 {
             f.observe(&report(2, 5, 1, f64::from(k), 0.0, 0.0, 1.0));
             f.step(f64::from(k));
@@ -1088,18 +1219,183 @@ mod tests {
         for k in 5..45 {
             f.step(f64::from(k));
         }
+        let north = |f: &Fuser, t: f64| {
+            let p = f.picture(t);
+            assert_eq!(p.len(), 1);
+            ((p[0].lat_deg - LAT0) * M_PER_DEG_LAT, p[0].state)
+        };
+        for k in 45..=50 {
+            f.observe(&report(2, 5, 1, f64::from(k), 40.0, 0.0, 1.0));
+            f.step(f64::from(k));
+            assert_eq!(f.fused_id_of(2, 5), Some(id));
+            let (n, state) = north(&f, f64::from(k));
+            if k < 50 {
+                // Held: the fused track stays where it was carried to, lost.
+                assert!(n.abs() < 1.0, "{n} m at {k} s");
+                assert_eq!(state, FusedTrackState::Lost);
+            } else {
+                assert!((n - 40.0).abs() < 1.0, "{n} m at {k} s");
+                assert_eq!(state, FusedTrackState::Tracked);
+            }
+        }
+        assert!(f.take_retired().is_empty());
+        // ... and a later track of drone 1 there joins that id.
+        f.observe(&report(1, 9, 1, 51.0, 40.3, 0.2, 1.0));
+        f.observe(&report(2, 5, 1, 51.0, 40.0, 0.0, 1.0));
+        f.step(51.0);
+        assert_eq!(f.fused_id_of(1, 9), Some(id));
+        assert_eq!(f.ids_given(), 1);
+    }
+
+    #[test]
+    fn a_held_track_that_comes_back_inside_the_gate_is_released_at_once() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..5 {
+            f.observe(&report(2, 5, 1, f64::from(k), 0.0, 0.0, 1.0));
+            f.step(f64::from(k));
+        }
+        for k in 5..45 {
+            f.step(f64::from(k));
+        }
+        // A first fix 40 m off (held), then the drone's track settles where the swimmer was.
         f.observe(&report(2, 5, 1, 45.0, 40.0, 0.0, 1.0));
         f.step(45.0);
-        assert_eq!(f.fused_id_of(2, 5), Some(id));
-        assert!(f.take_retired().is_empty());
-        let p = f.picture(45.0);
-        assert_eq!(p.len(), 1);
-        assert_eq!(p[0].state, FusedTrackState::Tracked);
-        // ... and a later track of drone 1 there joins that id.
-        f.observe(&report(1, 9, 1, 46.0, 40.3, 0.2, 1.0));
-        f.observe(&report(2, 5, 1, 46.0, 40.0, 0.0, 1.0));
+        assert_eq!(f.picture(45.0)[0].state, FusedTrackState::Lost);
+        f.observe(&report(2, 5, 1, 46.0, 1.0, 0.0, 1.0));
         f.step(46.0);
-        assert_eq!(f.fused_id_of(1, 9), Some(id));
+        assert_eq!(f.picture(46.0)[0].state, FusedTrackState::Tracked);
+    }
+
+    /// Seen on `two_drones_abreast` seed 101: after both drones looked away for 25 s, drone 1's
+    /// long-term ReID brought each of its swimmer tracks back on the neighbouring swimmer
+    /// (a group in a line), while drone 2's came back right. The fused ids stay with the
+    /// swimmers, whichever drone's reports arrive first, and no fused id is given twice:
+    /// after 25 s away the neighbour is outside a fused track's gate, after 60 s inside it.
+    #[test]
+    fn a_drones_reid_that_shifted_a_group_moves_no_fused_id() {
+        for (drone_1_first, gap_s) in [(true, 25), (false, 25), (true, 60), (false, 60)] {
+            let back = 10.0 + f64::from(gap_s);
+            let mut f = Fuser::new(FuseParams::default());
+            // Swimmers A, B, C at 0, 15 and 30 m north; drone 1 tracks 1, 2, 3, drone 2
+            // tracks 11, 12, 13.
+            for k in 0..10 {
+                let t = f64::from(k);
+                for (i, n) in [0.0, 15.0, 30.0].into_iter().enumerate() {
+                    f.observe(&report(1, 1 + i as u64, 1, t, n, 0.0, 2.0));
+                    f.observe(&report(2, 11 + i as u64, 1, t, n + 0.5, 0.3, 2.0));
+                }
+                f.step(t);
+            }
+            let before: Vec<Option<u64>> = (11..14).map(|id| f.fused_id_of(2, id)).collect();
+            assert_eq!(ids(&f, 9.0).len(), 3);
+            for k in 10..10 + gap_s {
+                f.step(f64::from(k));
+            }
+            // Back at 35 s: drone 1's track 1 on B, 2 on C, and a new track 4 on A; drone 2
+            // right. Drone 1 lost its track 3.
+            let drone_1 = |t: f64| {
+                [
+                    report(1, 1, 1, t, 15.2, 0.0, 2.0),
+                    report(1, 2, 1, t, 30.2, 0.0, 2.0),
+                    report(1, 4, 1, t, 0.2, 0.0, 2.0),
+                ]
+            };
+            let drone_2 = |t: f64| {
+                [
+                    report(2, 11, 1, t, 0.5, 0.3, 2.0),
+                    report(2, 12, 1, t, 15.5, 0.3, 2.0),
+                    report(2, 13, 1, t, 30.5, 0.3, 2.0),
+                ]
+            };
+            let mut t = back;
+            while t < back + 15.0 {
+                let (first, second) = if drone_1_first {
+                    (drone_1(t), drone_2(t + 0.5))
+                } else {
+                    (drone_2(t), drone_1(t + 0.5))
+                };
+                for r in &first {
+                    f.observe(r);
+                }
+                f.step(t);
+                for r in &second {
+                    f.observe(r);
+                }
+                f.step(t + 0.5);
+                t += 1.0;
+            }
+            let after: Vec<Option<u64>> = (11..14).map(|id| f.fused_id_of(2, id)).collect();
+            let case = format!("drone 1 first: {drone_1_first}, gap {gap_s} s");
+            assert_eq!(after, before, "{case}");
+            assert_eq!(f.fused_id_of(1, 4), before[0]);
+            assert_eq!(f.fused_id_of(1, 1), before[1]);
+            assert_eq!(f.fused_id_of(1, 2), before[2]);
+            assert_eq!(f.ids_given(), 3, "{case}");
+            assert_eq!(ids(&f, back + 14.5).len(), 3);
+        }
+    }
+
+    /// Seen on `two_drones_abreast` seed 404: both drones' ReID made the same mistake. After
+    /// 25 s away, each drone's track of swimmer A came back on C (never seen before) and its
+    /// track of B came back on A; B was then found by new tracks. A and B keep their fused ids
+    /// (B's carried with the drift, not retired into A's), C gets a new one, and no fused
+    /// track ever holds two tracks one drone had at the same time.
+    #[test]
+    fn both_drones_reid_wrong_alike_moves_no_fused_id() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..10 {
+            let t = f64::from(k);
+            for (sys, off) in [(1u8, 0.0), (2, 0.4)] {
+                let base = u64::from(sys) * 10;
+                f.observe(&report(sys, base + 1, 1, t, off, 0.0, 2.0));
+                f.observe(&report(sys, base + 2, 1, t, 15.0 + off, 0.0, 2.0));
+            }
+            f.step(t);
+        }
+        let (a, b) = (f.fused_id_of(1, 11).unwrap(), f.fused_id_of(1, 12).unwrap());
+        assert_eq!(f.fused_id_of(2, 21), Some(a));
+        assert_eq!(f.fused_id_of(2, 22), Some(b));
+        for k in 10..35 {
+            f.step(f64::from(k));
+        }
+        for k in 0..15 {
+            let t = 35.0 + f64::from(k);
+            for (sys, off) in [(1u8, 0.0), (2, 0.4)] {
+                let base = u64::from(sys) * 10;
+                f.observe(&report(sys, base + 1, 1, t, 30.0 + off, 0.0, 2.0)); // A's, on C
+                f.observe(&report(sys, base + 2, 1, t, off, 0.0, 2.0)); // B's, on A
+                if k >= 8 {
+                    f.observe(&report(sys, base + 5, 1, t, 15.0 + off, 0.0, 2.0));
+                    // new, on B
+                }
+            }
+            f.step(t);
+            for id in f.picture(t).iter().map(|p| p.id) {
+                let m: Vec<MemberKey> = f.fused[&id].members.iter().copied().collect();
+                for (i, x) in m.iter().enumerate() {
+                    for y in &m[i + 1..] {
+                        let (mx, my) = (&f.members[x], &f.members[y]);
+                        let both_live = f.is_live(mx, t) && f.is_live(my, t);
+                        assert!(
+                            x.0 != y.0
+                                || !both_live
+                                || mx.held_until_s.is_some()
+                                || my.held_until_s.is_some(),
+                            "fused {id} holds {x:?} and {y:?} at {t} s"
+                        );
+                    }
+                }
+            }
+        }
+        assert_eq!(f.fused_id_of(1, 12), Some(a));
+        assert_eq!(f.fused_id_of(2, 22), Some(a));
+        assert_eq!(f.fused_id_of(1, 15), Some(b));
+        assert_eq!(f.fused_id_of(2, 25), Some(b));
+        let c = f.fused_id_of(1, 11).unwrap();
+        assert!(c != a && c != b);
+        assert_eq!(f.fused_id_of(2, 21), Some(c));
+        assert_eq!(f.ids_given(), 3);
+        assert!(f.take_retired().is_empty());
     }
 
     #[test]
