@@ -3,10 +3,15 @@
 # our renderer following it (`mgmot-sim follow`), mgmot, and a ground station on both paths.
 #
 #   SITL SERIAL0 (tcp 5760) = the telemetry radio  <-- bench_sitl_fly.py (flies; radio tap)
+#   SITL SERIAL1 (udp 14554) = a second radio      --> mgmot ground (radio: the digest only)
 #   SITL SERIAL2 (tcp 5763) = the companion UART   <-- mavlink-router --> udp 14550 GCS (router tap)
 #                                                                     --> udp 14551 mgmot run
 #                                                                     --> udp 14552 mgmot-sim follow
+#                                                                     --> udp 14553 mgmot ground (router)
 #   mgmot-sim follow --frames unix:frames.sock --> mgmot run
+#
+# The two mgmot ground processes (the coordinator's side) record their fused pictures in
+# OUT/ground/{router,radio}.jsonl; the report scores them against the truth (section 7).
 #
 # Usage: scripts/bench_sitl.sh ARDUPILOT_DIR [--out DIR] [--router PATH_TO_mavlink-routerd]
 #                              [--bin-dir DIR] [--python PY]
@@ -25,8 +30,9 @@
 # docs/sitl-bench.md). The vehicle gets firmware-config/ardupilot/
 # mgmot-servo-gimbal.parm on top of SITL's copter defaults. Prints, at the end: messages per
 # type and rate at each tap, the TIMESYNC offsets, camera pose against SITL's own state,
-# geolocation error of every reported track, and which of mgmot's messages reached each ground
-# station. Not part of CI: the ArduPilot sources are not reachable there.
+# geolocation error of every reported track, which of mgmot's messages reached each ground
+# station, and mgmot ground's fused picture on each path against the truth. Not part of CI:
+# the ArduPilot sources are not reachable there.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo=$PWD
@@ -46,7 +52,7 @@ while [ $# -gt 0 ]; do
     --reboot-at) fly_args+=(--reboot-at "$2"); shift 2 ;;
     --reboot-landed) fly_args+=(--reboot-landed); shift ;;
     --reboot-dry-run) fly_args+=(--reboot-dry-run); shift ;;
-    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
     *) if [ -z "$ap_dir" ]; then ap_dir="$1"; shift; else echo "bench: unexpected argument $1" >&2; exit 2; fi ;;
   esac
 done
@@ -94,6 +100,7 @@ trap cleanup EXIT
 home="47.6721,9.2679,395,0"
 mkdir -p "$out/sitl"
 (cd "$out/sitl" && exec "$ap_dir/build/sitl/bin/arducopter" --model + --speedup 1 -I0 --home "$home" \
+  --serial1 udpclient:127.0.0.1:14554 \
   --defaults "$ap_dir/Tools/autotest/default_params/copter.parm,$repo/firmware-config/ardupilot/mgmot-servo-gimbal.parm" \
   > "$out/sitl.log" 2>&1) &
 pids+=($!)
@@ -117,6 +124,10 @@ Port = 14551
 Mode = Normal
 Address = 127.0.0.1
 Port = 14552
+[UdpEndpoint ground]
+Mode = Normal
+Address = 127.0.0.1
+Port = 14553
 EOF
 
 # mgmot's config: the bench's link, frames, detector and servo gimbal; defaults elsewhere.
@@ -146,6 +157,18 @@ EOF
 if [ "$backend" = onnxruntime ]; then echo "ort_library = \"$ort\"" >> "$out/mgmot.toml"; fi
 printf '\n[recording]\ndir = "%s/flights"\nkeyframe_every_s = 5.0\n' "$out" >> "$out/mgmot.toml"
 
+# The ground side: one mgmot ground on the router (MGMOT_TRACK), one on SITL's second radio,
+# where ArduPilot forwards mgmot's STATUSTEXT digest but drops MGMOT_TRACK.
+mkdir -p "$out/ground"
+grounds=()
+for path in router:14553 radio:14554; do
+  name=${path%%:*}
+  "$bin_dir/mgmot" ground --connection "udpin:127.0.0.1:${path#*:}" --http "" \
+    --record "$out/ground/$name.jsonl" --geojson "$out/ground/$name.geojson" \
+    --stats-json "$out/ground/${name}_stats.json" > "$out/ground/$name.log" 2>&1 &
+  grounds+=($!)
+  pids+=($!)
+done
 "$python" scripts/bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out "$out" ${fly_args[@]+"${fly_args[@]}"} &
 fly=$!
 pids+=($fly)
@@ -166,8 +189,8 @@ pids+=($mgmot)
 fly_rc=0
 wait "$fly" || fly_rc=$?
 if [ "$fly_rc" -ne 0 ]; then echo "bench: the flight script failed (exit $fly_rc); reporting what was recorded" >&2; fi
-kill -INT "$mgmot" "$follow" 2>/dev/null || true
-wait "$mgmot" "$follow" 2>/dev/null || true
+kill -INT "$mgmot" "$follow" "${grounds[@]}" 2>/dev/null || true
+wait "$mgmot" "$follow" "${grounds[@]}" 2>/dev/null || true
 "$python" scripts/bench_sitl_report.py "$out"
 # The flight mgmot recorded (its tlog holds ArduPilot's own packets): replayed, and reviewed
 # against the simulator's truth.

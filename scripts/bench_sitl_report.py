@@ -13,7 +13,10 @@ renderer's truth and track report and mgmot's stats from the bench's output fold
    velocity error (vel_n, vel_e against the object's motion in the truth), for the whole run,
    or BEFORE and AFTER the autopilot's reboot when the ground station rebooted it
    (bench_sitl_fly.py --reboot-at), with the time from the first pose of the new boot to the
-   first geolocated MGMOT_TRACK, and mgmot's WARN/ERROR lines and telemetry counters.
+   first geolocated MGMOT_TRACK, and mgmot's WARN/ERROR lines and telemetry counters;
+7. mgmot ground on both paths (router: MGMOT_TRACK; SITL's second radio: the STATUSTEXT digest
+   alone): what it heard, and its fused picture against the truth (each tracked fused track
+   matched to the nearest object within the gate at that moment; fused ids per object).
 
 Usage: bench_sitl_report.py OUT_DIR
 """
@@ -342,6 +345,108 @@ def reboot_section(out, dialect, router, report):
         report["mgmot_clock_jumps"] = st.get("clock_jumps")
 
 
+# SeaDronesSee class ids of the truth's class names.
+CLASS_IDS = {"swimmer": 1, "boat": 2, "jetski": 3, "life_saving_appliances": 4, "lifebuoy": 4, "buoy": 5}
+
+
+def ground_section(out, router, report):
+    """mgmot ground's recordings (OUT/ground/{router,radio}.jsonl) against the truth. The
+    picture's time is UTC: mapped onto the autopilot's boot clock with its SYSTEM_TIME (router
+    tap), then onto the scenario time with the renderer's frames."""
+    import bisect
+    print("\n-- 7. mgmot ground's fused picture against the truth")
+    truth = load_truth(out)
+    utc = []  # (unix_us, boot index, boot_us)
+    boot, last = 0, None
+    for _, m in router:
+        if m.get_type() == "SYSTEM_TIME" and sender(m) == AUTOPILOT and m.time_unix_usec > 0:
+            if last is not None and m.time_boot_ms + 1000 < last:
+                boot += 1
+            last = m.time_boot_ms
+            utc.append((m.time_unix_usec, boot, m.time_boot_ms * 1000))
+    utc.sort()
+    keys = [u[0] for u in utc]
+
+    def scenario_t(unix_ms):
+        j = bisect.bisect_left(keys, unix_ms * 1000)
+        near = [utc[k] for k in (j - 1, j) if 0 <= k < len(utc)]
+        if not near or truth is None:
+            return None
+        u, b, boot_us = min(near, key=lambda x: abs(x[0] - unix_ms * 1000))
+        if abs(u - unix_ms * 1000) > 5_000_000 or b >= len(truth["boots"]):
+            return None
+        return scenario_time(truth["boots"][b], boot_us + unix_ms * 1000 - u)
+
+    report["ground"] = {}
+    for name in ("router", "radio"):
+        rec = os.path.join(out, "ground", name + ".jsonl")
+        stats_path = os.path.join(out, "ground", name + "_stats.json")
+        if not os.path.exists(rec):
+            print("   %s: no recording (%s)" % (name, rec))
+            continue
+        stats = json.load(open(stats_path)) if os.path.exists(stats_path) else {}
+        lines = [json.loads(x) for x in open(rec) if x.strip()][1:]
+        errors, ids_of, classes = [], {}, {"right": 0, "wrong": 0}
+        matched_to = {}  # fused id -> object id -> samples
+        unmatched = untimed = 0
+        fused_ids = set()
+        for p in lines:
+            tracks = [f for f in p.get("features", []) if f["properties"].get("kind") == "track"]
+            fused_ids.update(f["properties"]["fused_id"] for f in tracks)
+            tracked = [f for f in tracks if f["properties"].get("state") == "tracked"]
+            if not tracked:
+                continue
+            t = scenario_t(p["properties"]["time_unix_ms"])
+            if t is None:
+                untimed += len(tracked)
+                continue
+            states = {oid: object_state(obj, t) for oid, obj in truth["objects"].items()}
+            for f in tracked:
+                lon, lat = f["geometry"]["coordinates"][:2]
+                best = None
+                for oid, st in states.items():
+                    if st is None:
+                        continue
+                    n_per, e_per = m_per_deg(st[4][3])
+                    dn = (lat - st[4][3]) * n_per - (st[0] - st[4][1])
+                    de = (lon - st[4][4]) * e_per - (st[1] - st[4][2])
+                    d = math.hypot(dn, de)
+                    if d <= GATE_M and (best is None or d < best[0]):
+                        best = (d, oid, st[3])
+                if best is None:
+                    unmatched += 1
+                    continue
+                errors.append(best[0])
+                ids_of.setdefault(best[1], set()).add(f["properties"]["fused_id"])
+                per = matched_to.setdefault(f["properties"]["fused_id"], {})
+                per[best[1]] = per.get(best[1], 0) + 1
+                same = f["properties"].get("class_id") == CLASS_IDS.get(best[2])
+                classes["right" if same else "wrong"] += 1
+        ing = stats.get("ingest", {})
+        # Each fused id's identity is the object it matched most often (as core's fuse::score);
+        # "any": every fused id ever nearest to the object.
+        identity = {}
+        for fid, per in matched_to.items():
+            oid = max(per, key=per.get)
+            identity.setdefault(oid, set()).add(fid)
+        per_obj = [len(v) for v in identity.values()]
+        any_obj = [len(v) for v in ids_of.values()]
+        fig = {
+            "drones": stats.get("drones"), "track_reports_used": ing.get("track_reports_used"),
+            "digest_positions": ing.get("digest_positions"), "pictures": len(lines),
+            "fused_ids": len(fused_ids), "tracked_samples_matched": len(errors),
+            "unmatched": unmatched, "untimed": untimed,
+            "error_median_m": round(pct(errors, 0.5), 2), "error_p95_m": round(pct(errors, 0.95), 2),
+            "objects": len(identity), "objects_any": len(ids_of),
+            "fused_ids_per_object": round(sum(per_obj) / len(per_obj), 3) if per_obj else float("nan"),
+            "max_ids_per_object": max(per_obj) if per_obj else 0,
+            "fused_ids_per_object_any": round(sum(any_obj) / len(any_obj), 3) if any_obj else float("nan"),
+            "class": classes,
+        }
+        print("   %-6s %s" % (name, json.dumps(fig)))
+        report["ground"][name] = fig
+
+
 def main():
     out = sys.argv[1]
     dialect = load_dialect()
@@ -452,11 +557,16 @@ def main():
         print("   %-36s %s" % (name, counts))
         for x in texts:
             print("      STATUSTEXT: %s" % x)
-        geo = [m for _, m in log if sender(m) == MGMOT and m.get_type() == "CAMERA_TRACKING_GEO_STATUS" and m.tracking_status != 0]
-        if geo:
-            m = geo[len(geo) // 2]
-            print("      CAMERA_TRACKING_GEO_STATUS active: %d, e.g. lat %.6f lon %.6f h_acc %.1f m dist %.0f m"
-                  % (len(geo), m.lat * 1e-7, m.lon * 1e-7, m.h_acc, m.dist))
+        # tracking_status is a bitmask: ACTIVE 1, ERROR 2 (active, but the target is lost: no
+        # position).
+        geo = [m for _, m in log if sender(m) == MGMOT and m.get_type() == "CAMERA_TRACKING_GEO_STATUS"
+               and m.tracking_status & 1 and not m.tracking_status & 2]
+        lost = sum(1 for _, m in log if sender(m) == MGMOT and m.get_type() == "CAMERA_TRACKING_GEO_STATUS"
+                   and m.tracking_status & 2)
+        if geo or lost:
+            m = geo[len(geo) // 2] if geo else None
+            print("      CAMERA_TRACKING_GEO_STATUS active with a position: %d%s; active, target lost (ERROR): %d"
+                  % (len(geo), ", e.g. lat %.6f lon %.6f h_acc %.1f m dist %.0f m" % (m.lat * 1e-7, m.lon * 1e-7, m.h_acc, m.dist) if m else "", lost))
         report["at_" + name.split()[0]] = counts
     log = os.path.join(out, "mgmot.log")
     if os.path.exists(log):
@@ -471,6 +581,7 @@ def main():
         print("\n   mgmot: %s" % {k: v for k, v in s.items() if not isinstance(v, (list, dict))})
         print("   mgmot link: %s" % s.get("link"))
     reboot_section(out, dialect, router, report)
+    ground_section(out, router, report)
     json.dump(report, open(os.path.join(out, "report.json"), "w"), indent=1, default=str)
 
 
