@@ -61,6 +61,11 @@ pub struct FuseParams {
     /// leaves as soon as another live track of the fused track, or another fused track, says
     /// the drone's ReID took it for the wrong object. 0: followed at once.
     pub reacquire_hold_s: f64,
+    /// A drone's new track may take the place of another track of the same drone in a fused
+    /// track that track joined at most this long ago (s), when the new one fits the fused
+    /// track's other drones better; the one it displaces is associated anew. Undoes a first
+    /// pairing of two neighbours' tracks the wrong way round. 0: never.
+    pub rematch_within_s: f64,
 }
 
 impl Default for FuseParams {
@@ -77,6 +82,7 @@ impl Default for FuseParams {
             drift: DriftParams::default(),
             drift_min_age_s: 5.0,
             reacquire_hold_s: 5.0,
+            rematch_within_s: 10.0,
         }
     }
 }
@@ -106,6 +112,7 @@ impl FuseParams {
             ),
             ("drift_min_age_s", self.drift_min_age_s),
             ("reacquire_hold_s", self.reacquire_hold_s),
+            ("rematch_within_s", self.rematch_within_s),
             ("drift.min_sample_s", self.drift.min_sample_s),
             ("drift.max_vel_std_m_s", self.drift.max_vel_std_m_s),
         ];
@@ -242,6 +249,8 @@ struct Member {
     /// Came back after a gap far from its fused track and held there until this time (s):
     /// it neither moves its fused track nor keeps another track of its drone out of one.
     held_until_s: Option<f64>,
+    /// When it last joined a fused track (s).
+    joined_s: f64,
 }
 
 impl Member {
@@ -389,6 +398,7 @@ impl Fuser {
                         tracked: r.tracked,
                         fused: None,
                         held_until_s: None,
+                        joined_s: r.time_s,
                     },
                 );
             }
@@ -665,6 +675,11 @@ impl Fuser {
 
     /// Where fused track `f` is at `now_s`, and who sees it.
     fn predict(&self, f: &Fused, now_s: f64) -> Prediction {
+        self.predict_without(f, now_s, None)
+    }
+
+    /// [`Fuser::predict`] leaving out drone track `skip`.
+    fn predict_without(&self, f: &Fused, now_s: f64, skip: Option<MemberKey>) -> Prediction {
         let p = &self.params;
         let mut info = Matrix2::zeros();
         let mut info_pos = Vector2::zeros();
@@ -675,9 +690,15 @@ impl Fuser {
         let any_tracked = f
             .members
             .iter()
+            .filter(|k| Some(**k) != skip)
             .filter_map(|k| self.members.get(k))
             .any(|m| m.tracked && m.held_until_s.is_none() && self.is_live(m, now_s));
-        for m in f.members.iter().filter_map(|k| self.members.get(k)) {
+        for m in f
+            .members
+            .iter()
+            .filter(|k| Some(**k) != skip)
+            .filter_map(|k| self.members.get(k))
+        {
             if !self.is_live(m, now_s) || m.held_until_s.is_some() || (any_tracked && !m.tracked) {
                 continue;
             }
@@ -806,48 +827,123 @@ impl Fuser {
         let mut predicted: BTreeMap<u64, Prediction> = BTreeMap::new();
         let (mut cost, mut pairs) = (Vec::new(), Vec::new());
         for rows in new.into_values() {
-            for (id, f) in &self.fused {
-                predicted
-                    .entry(*id)
-                    .or_insert_with(|| self.predict(f, now_s));
-            }
-            let cols: Vec<(u64, &Prediction)> = predicted.iter().map(|(id, p)| (*id, p)).collect();
-            cost.clear();
-            for k in &rows {
-                let m = &self.members[k];
-                let (pos, var) = m.predict(now_s, &self.params);
-                let me = BTreeSet::from([*k]);
-                for (id, pred) in &cols {
-                    let f = &self.fused[id];
-                    let allowed =
-                        f.class_id == m.class_id && self.compatible(&me, &f.members, true);
-                    let c = allowed
-                        .then(|| self.gated((pos, Matrix2::identity() * var), (pred.pos, pred.cov)))
-                        .flatten();
-                    cost.push(c.unwrap_or(f64::INFINITY));
+            // A second round for the tracks the first displaced, which displace nothing.
+            let (mut rows, mut may_displace) = (rows, self.params.rematch_within_s > 0.0);
+            while !rows.is_empty() {
+                for (id, f) in &self.fused {
+                    predicted
+                        .entry(*id)
+                        .or_insert_with(|| self.predict(f, now_s));
                 }
-            }
-            solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
-            let mut matched = vec![None; rows.len()];
-            for (r, c) in &pairs {
-                matched[*r] = Some(cols[*c].0);
-            }
-            for (k, to) in rows.iter().zip(matched) {
-                let id = match to {
-                    Some(id) => id,
-                    None => self.start_fused(*k, now_s),
-                };
-                predicted.remove(&id);
-                if let Some(m) = self.members.get_mut(k) {
-                    m.fused = Some(id);
+                let cols: Vec<(u64, &Prediction)> =
+                    predicted.iter().map(|(id, p)| (*id, p)).collect();
+                cost.clear();
+                let mut displaces = BTreeMap::new();
+                for (r, k) in rows.iter().enumerate() {
+                    let m = &self.members[k];
+                    let (pos, var) = m.predict(now_s, &self.params);
+                    let me = (pos, Matrix2::identity() * var);
+                    let single = BTreeSet::from([*k]);
+                    for (c, (id, pred)) in cols.iter().enumerate() {
+                        let f = &self.fused[id];
+                        let mut d2 = None;
+                        if f.class_id == m.class_id {
+                            if self.compatible(&single, &f.members, true) {
+                                d2 = self.gated(me, (pred.pos, pred.cov));
+                            } else if may_displace {
+                                if let Some((j, d)) = self.displaceable(*k, me, f, now_s) {
+                                    d2 = Some(d);
+                                    displaces.insert((r, c), j);
+                                }
+                            }
+                        }
+                        cost.push(d2.unwrap_or(f64::INFINITY));
+                    }
                 }
-                if let Some(f) = self.fused.get_mut(&id) {
-                    f.members.insert(*k);
-                    f.seen_by.insert(k.0);
+                solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
+                let mut matched = vec![None; rows.len()];
+                let mut displaced = Vec::new();
+                for (r, c) in &pairs {
+                    matched[*r] = Some(cols[*c].0);
+                    if let Some(j) = displaces.get(&(*r, *c)) {
+                        displaced.push((*j, cols[*c].0));
+                    }
                 }
+                for (j, id) in &displaced {
+                    if let Some(m) = self.members.get_mut(j) {
+                        m.fused = None;
+                    }
+                    if let Some(f) = self.fused.get_mut(id) {
+                        f.members.remove(j);
+                    }
+                }
+                for (k, to) in rows.iter().zip(matched) {
+                    let id = match to {
+                        Some(id) => id,
+                        None => self.start_fused(*k, now_s),
+                    };
+                    predicted.remove(&id);
+                    if let Some(m) = self.members.get_mut(k) {
+                        m.fused = Some(id);
+                        m.joined_s = now_s;
+                    }
+                    if let Some(f) = self.fused.get_mut(&id) {
+                        f.members.insert(*k);
+                        f.seen_by.insert(k.0);
+                    }
+                }
+                rows = displaced.into_iter().map(|(j, _)| j).collect();
+                may_displace = false;
             }
         }
         predicted
+    }
+
+    /// Whether drone track `k` (at `me`) may take the place of another track `j` of its drone
+    /// in fused track `f`: `j` is the only track of `f` that keeps `k` out, it is live and
+    /// joined `f` within `rematch_within_s`, `f` has a live track of another drone, and `k`
+    /// fits the estimate of `f` without `j` better than `j` does. Returns `j` and `k`'s squared
+    /// Mahalanobis distance to that estimate.
+    fn displaceable(
+        &self,
+        k: MemberKey,
+        me: (Vector2<f64>, Matrix2<f64>),
+        f: &Fused,
+        now_s: f64,
+    ) -> Option<(MemberKey, f64)> {
+        let mk = self.members.get(&k)?;
+        let mut blocking = f.members.iter().filter(|j| {
+            j.0 == k.0
+                && self
+                    .members
+                    .get(j)
+                    .is_some_and(|mj| mj.held_until_s.is_none() && !Self::sequential(mk, mj))
+        });
+        let j = *blocking.next()?;
+        if blocking.next().is_some() {
+            return None;
+        }
+        let mj = self.members.get(&j)?;
+        if !self.is_live(mj, now_s) || now_s - mj.joined_s > self.params.rematch_within_s {
+            return None;
+        }
+        let others = self.predict_without(f, now_s, Some(j));
+        let other_drone_live = f.members.iter().any(|o| {
+            o.0 != k.0
+                && self
+                    .members
+                    .get(o)
+                    .is_some_and(|mo| mo.held_until_s.is_none() && self.is_live(mo, now_s))
+        });
+        if !other_drone_live || others.live == 0 {
+            return None;
+        }
+        let d2k = self.gated(me, (others.pos, others.cov))?;
+        let (pos_j, var_j) = mj.predict(now_s, &self.params);
+        let d = pos_j - others.pos;
+        let s = (others.cov + Matrix2::identity() * var_j).try_inverse()?;
+        let d2j = (d.transpose() * s * d)[(0, 0)];
+        (d2k < d2j).then_some((j, d2k))
     }
 
     fn start_fused(&mut self, k: MemberKey, now_s: f64) -> u64 {
@@ -1396,6 +1492,43 @@ mod tests {
         assert_eq!(f.fused_id_of(2, 21), Some(c));
         assert_eq!(f.ids_given(), 3);
         assert!(f.take_retired().is_empty());
+    }
+
+    /// Seen on `two_drones_abreast` seed 101's rerun: two swimmers 3.6 m apart. Drone 2's
+    /// track of A and drone 1's track of B came first and were paired; drone 1's track of A
+    /// then takes B's track's place, B's track is associated anew and drone 2's track of B
+    /// joins it: two fused ids, each with both drones' tracks of one swimmer.
+    #[test]
+    fn a_first_pairing_of_two_neighbours_the_wrong_way_round_is_undone() {
+        for rematch_within_s in [10.0, 0.0] {
+            let mut f = Fuser::new(FuseParams {
+                rematch_within_s,
+                ..FuseParams::default()
+            });
+            let (a, b) = (0.0, 3.6);
+            for k in 0..8 {
+                let t = f64::from(k);
+                f.observe(&report(2, 26, 1, t, a, 0.0, 2.0));
+                if k >= 1 {
+                    f.observe(&report(1, 44, 1, t, b, 0.0, 2.0));
+                }
+                if k >= 2 {
+                    f.observe(&report(1, 46, 1, t, a + 0.2, 0.0, 2.0));
+                }
+                if k >= 3 {
+                    f.observe(&report(2, 29, 1, t, b + 0.2, 0.0, 2.0));
+                }
+                f.step(t);
+            }
+            if rematch_within_s > 0.0 {
+                assert_eq!(f.fused_id_of(1, 46), f.fused_id_of(2, 26));
+                assert_eq!(f.fused_id_of(1, 44), f.fused_id_of(2, 29));
+                assert_eq!(f.ids_given(), 2);
+            } else {
+                // Without it the first pairing stands (the behaviour before 2026-12-07).
+                assert_eq!(f.fused_id_of(1, 44), f.fused_id_of(2, 26));
+            }
+        }
     }
 
     #[test]

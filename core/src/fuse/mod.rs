@@ -24,6 +24,12 @@
 //!   the two ids; two fused tracks of disjoint drones that stay inside the gate for
 //!   `merge_after_s` are merged too (the lower id survives). Every retired fused id is
 //!   reported once ([`Fuser::take_retired`]) so the outputs can end it.
+//! - **A drone's ReID is checked, not just followed:** a drone track that comes back after a
+//!   gap far from its fused track (or inside several fused tracks' gates) is held for
+//!   `reacquire_hold_s`, moving nothing, and leaves as soon as another drone's live track or
+//!   a better-fitting fused track says it is another object. A drone's new track may take the
+//!   place of its drone's other track in a young fused track that it fits better
+//!   (`rematch_within_s`), undoing a first pairing of two neighbours the wrong way round.
 //!
 //! Pure and synchronous: the caller passes every time; no IO.
 
