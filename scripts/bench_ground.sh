@@ -36,7 +36,7 @@
 # report.json stay in --out.
 #
 # --seed N flies another seed than the scenario's (mgmot-sim --seed; e.g. the validation seeds
-# 101 and 202 of docs/ground.md). --size WxH renders both cameras smaller than the scenario's
+# 606-1515 of docs/ground.md). --size WxH renders both cameras smaller than the scenario's
 # 1280x720 (default 640x360, as tests/ground.rs: two renderers on a 2-core machine).
 # --router PATH: mavlink-routerd (else $MAVLINK_ROUTERD, else the one on PATH).
 # First run: creates .venv-tak as scripts/bench_tak.sh does. The whole bench runs in a private
