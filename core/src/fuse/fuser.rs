@@ -66,6 +66,11 @@ pub struct FuseParams {
     /// track's other drones better; the one it displaces is associated anew. Undoes a first
     /// pairing of two neighbours' tracks the wrong way round. 0: never.
     pub rematch_within_s: f64,
+    /// The sea drift carries a fused track nobody sees only while the drift's own uncertainty
+    /// (the larger per-axis standard deviation of its mean velocity) is at most this (m/s): a
+    /// drift estimated from a few noisy track velocities is worse than keeping still (seen:
+    /// 1.7 m/s, which put a swimmer's lost fused track out of every gate).
+    pub max_drift_std_m_s: f64,
 }
 
 impl Default for FuseParams {
@@ -83,6 +88,7 @@ impl Default for FuseParams {
             drift_min_age_s: 5.0,
             reacquire_hold_s: 5.0,
             rematch_within_s: 10.0,
+            max_drift_std_m_s: 0.3,
         }
     }
 }
@@ -111,6 +117,7 @@ impl FuseParams {
                 self.min_extrapolation_speed_m_s,
             ),
             ("drift_min_age_s", self.drift_min_age_s),
+            ("max_drift_std_m_s", self.max_drift_std_m_s),
             ("reacquire_hold_s", self.reacquire_hold_s),
             ("rematch_within_s", self.rematch_within_s),
             ("drift.min_sample_s", self.drift.min_sample_s),
@@ -743,7 +750,11 @@ impl Fuser {
         } else {
             Vector2::zeros()
         };
-        let (pos, cov, vel) = match self.drift.estimate(f.class_id) {
+        let drift = self
+            .drift
+            .estimate(f.class_id)
+            .filter(|d| d.cov_m2_s2.symmetric_eigenvalues().max().sqrt() <= p.max_drift_std_m_s);
+        let (pos, cov, vel) = match drift {
             Some(d) => (
                 f.pos + d.vel_ne_m_s * dt,
                 f.cov + d.cov_m2_s2 * dt * dt + Matrix2::identity() * p.own_motion_m2_s * own_dt,
@@ -860,6 +871,22 @@ impl Fuser {
                         cost.push(d2.unwrap_or(f64::INFINITY));
                     }
                 }
+                // A track that would start a fused track of its own joins one whose only live
+                // tracks are held where it is: another drone sees the object where the held
+                // track's drone put it.
+                for (r, k) in rows.iter().enumerate() {
+                    let row = &mut cost[r * cols.len()..(r + 1) * cols.len()];
+                    if row.iter().any(|c| c.is_finite()) {
+                        continue;
+                    }
+                    for (c, (id, pred)) in cols.iter().enumerate() {
+                        if pred.live == 0 {
+                            if let Some(d2) = self.near_held(*k, &self.fused[id], now_s) {
+                                row[c] = d2;
+                            }
+                        }
+                    }
+                }
                 solve_gated(rows.len(), cols.len(), &mut cost, &mut pairs);
                 let mut matched = vec![None; rows.len()];
                 let mut displaced = Vec::new();
@@ -897,6 +924,28 @@ impl Fuser {
             }
         }
         predicted
+    }
+
+    /// The squared Mahalanobis distance from drone track `k` to the nearest live held track of
+    /// fused track `f` inside the gate, when `k` may join `f` (its class, compatible).
+    fn near_held(&self, k: MemberKey, f: &Fused, now_s: f64) -> Option<f64> {
+        let m = self.members.get(&k)?;
+        if f.class_id != m.class_id || !self.compatible(&BTreeSet::from([k]), &f.members, true) {
+            return None;
+        }
+        let (pos, var) = m.predict(now_s, &self.params);
+        f.members
+            .iter()
+            .filter_map(|h| self.members.get(h))
+            .filter(|h| h.held_until_s.is_some() && self.is_live(h, now_s))
+            .filter_map(|h| {
+                let (hp, hv) = h.predict(now_s, &self.params);
+                self.gated(
+                    (pos, Matrix2::identity() * var),
+                    (hp, Matrix2::identity() * hv),
+                )
+            })
+            .min_by(f64::total_cmp)
     }
 
     /// Whether drone track `k` (at `me`) may take the place of another track `j` of its drone
@@ -1340,6 +1389,38 @@ mod tests {
         f.observe(&report(2, 5, 1, 51.0, 40.0, 0.0, 1.0));
         f.step(51.0);
         assert_eq!(f.fused_id_of(1, 9), Some(id));
+        assert_eq!(f.ids_given(), 1);
+    }
+
+    /// Seen in CI on `two_drones_abreast` seed 31: drone 2's track came back 55 s later where
+    /// the carried estimate was not, and was held; drone 1's new track of the same swimmer
+    /// then started a fused id of its own, and the swimmer had two. Now drone 1's track joins
+    /// the held track's fused id, and the held track is released.
+    #[test]
+    fn another_drones_new_track_at_a_held_track_joins_its_fused_id() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..5 {
+            f.observe(&report(2, 5, 1, f64::from(k), 0.0, 0.0, 1.0));
+            f.step(f64::from(k));
+        }
+        let id = f.fused_id_of(2, 5).unwrap();
+        for k in 5..60 {
+            f.step(f64::from(k));
+        }
+        f.observe(&report(2, 5, 1, 60.0, 40.0, 0.0, 1.0));
+        f.step(60.0);
+        assert_eq!(f.picture(60.0)[0].state, FusedTrackState::Lost, "held");
+        f.observe(&report(2, 5, 1, 61.0, 40.0, 0.0, 1.0));
+        f.observe(&report(1, 71, 1, 61.0, 40.4, 0.3, 1.0));
+        f.step(61.0);
+        assert_eq!(f.fused_id_of(1, 71), Some(id));
+        f.observe(&report(2, 5, 1, 62.0, 40.0, 0.0, 1.0));
+        f.observe(&report(1, 71, 1, 62.0, 40.4, 0.3, 1.0));
+        f.step(62.0);
+        let p = f.picture(62.0);
+        assert_eq!(p.len(), 1);
+        assert_eq!(p[0].state, FusedTrackState::Tracked);
+        assert_eq!(p[0].members.len(), 2);
         assert_eq!(f.ids_given(), 1);
     }
 
