@@ -21,6 +21,14 @@ fn later(a: Option<f64>, b: Option<f64>) -> Option<f64> {
 /// that was re-mapped.
 const CLOCK_JUMP_S: f64 = 30.0;
 
+/// Squared Mahalanobis distance between two positions with their covariances (summed), or
+/// `None` when the sum is singular.
+fn mahalanobis2(a: (Vector2<f64>, Matrix2<f64>), b: (Vector2<f64>, Matrix2<f64>)) -> Option<f64> {
+    let d = a.0 - b.0;
+    let s = (a.1 + b.1).try_inverse()?;
+    Some((d.transpose() * s * d)[(0, 0)])
+}
+
 /// A drone's track: (system id, track id).
 pub type MemberKey = (u8, u64);
 
@@ -466,14 +474,10 @@ impl Fuser {
         let own = self.gated(me, (p.pos, p.cov));
         // Another live, unheld track of the fused track: it says where the object is now, and
         // one of the same drone says (the drone's own tracker) that this is another object.
-        let contradicted = f.members.iter().any(|k| {
-            *k != key
-                && (own.is_none() || k.0 == key.0)
-                && self
-                    .members
-                    .get(k)
-                    .is_some_and(|o| o.held_until_s.is_none() && self.is_live(o, now_s))
-        });
+        let contradicted = f
+            .members
+            .iter()
+            .any(|k| *k != key && (own.is_none() || k.0 == key.0) && self.live_unheld(k, now_s));
         if contradicted {
             return Reacquired::Wrong;
         }
@@ -782,13 +786,18 @@ impl Fuser {
         a: (Vector2<f64>, Matrix2<f64>),
         b: (Vector2<f64>, Matrix2<f64>),
     ) -> Option<f64> {
-        let d = a.0 - b.0;
-        if d.norm() > self.params.max_distance_m {
+        if (a.0 - b.0).norm() > self.params.max_distance_m {
             return None;
         }
-        let s = (a.1 + b.1).try_inverse()?;
-        let d2 = (d.transpose() * s * d)[(0, 0)];
+        let d2 = mahalanobis2(a, b)?;
         (d2.is_finite() && d2 <= self.params.gate_chi2).then_some(d2)
+    }
+
+    /// A drone track that is live at `now_s` and not held.
+    fn live_unheld(&self, k: &MemberKey, now_s: f64) -> bool {
+        self.members
+            .get(k)
+            .is_some_and(|m| m.held_until_s.is_none() && self.is_live(m, now_s))
     }
 
     /// Advances the picture to `now_s` (the fuser's clock): new drone tracks are associated,
@@ -977,21 +986,19 @@ impl Fuser {
             return None;
         }
         let others = self.predict_without(f, now_s, Some(j));
-        let other_drone_live = f.members.iter().any(|o| {
-            o.0 != k.0
-                && self
-                    .members
-                    .get(o)
-                    .is_some_and(|mo| mo.held_until_s.is_none() && self.is_live(mo, now_s))
-        });
+        let other_drone_live = f
+            .members
+            .iter()
+            .any(|o| o.0 != k.0 && self.live_unheld(o, now_s));
         if !other_drone_live || others.live == 0 {
             return None;
         }
         let d2k = self.gated(me, (others.pos, others.cov))?;
         let (pos_j, var_j) = mj.predict(now_s, &self.params);
-        let d = pos_j - others.pos;
-        let s = (others.cov + Matrix2::identity() * var_j).try_inverse()?;
-        let d2j = (d.transpose() * s * d)[(0, 0)];
+        let d2j = mahalanobis2(
+            (pos_j, Matrix2::identity() * var_j),
+            (others.pos, others.cov),
+        )?;
         (d2k < d2j).then_some((j, d2k))
     }
 
