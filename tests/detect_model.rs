@@ -178,6 +178,30 @@ fn shipped_model_finds_the_five_classes_with_tiling() {
     );
 }
 
+/// `tile = "auto"`: a frame size is tiled only when its model runs fit in the frame budget at
+/// the run time measured at load. A budget no run fits gives exactly the whole-frame
+/// detections, one every run fits exactly the tiled ones.
+#[test]
+fn tiling_with_a_frame_budget_tiles_only_what_fits() {
+    let frame = image::open(fixture("sim_heldout_a.jpg")).unwrap().to_rgb8();
+    let run = |tiling: Option<TilingConfig>| {
+        let mut cfg = DetectorConfig::new(root().join(INT8));
+        cfg.tiling = tiling;
+        Detector::load(cfg).unwrap().detect(&frame).unwrap()
+    };
+    let whole = run(None);
+    let tiled = run(Some(TilingConfig::default()));
+    assert_ne!(whole, tiled, "tiling changed nothing on this frame");
+    let budget = |us| {
+        Some(TilingConfig {
+            frame_budget_us: Some(us),
+            ..TilingConfig::default()
+        })
+    };
+    assert_eq!(run(budget(1)), whole);
+    assert_eq!(run(budget(u64::MAX)), tiled);
+}
+
 #[test]
 fn missing_model_names_the_file() {
     let p = root().join("models/does-not-exist.onnx");

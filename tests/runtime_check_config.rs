@@ -263,6 +263,7 @@ fn auto_run(ort: Option<&Path>) -> (String, serde_json::Value) {
         toml::from_str("model = \"\"").expect("the ONNX detector's defaults");
     onnx.model = repo_file(INT8);
     onnx.alternatives = vec![repo_file(FP32)];
+    onnx.tile = mgmot::config::TileChoice::Auto;
     c.detector = DetectorConfig::Onnx(onnx);
     let config = dir.write_config("run.toml", &c);
     let stats = dir.join("stats.json");
@@ -315,6 +316,36 @@ fn assert_chose_the_fastest(stderr: &str, stats: &serde_json::Value, backends: &
     d["backend"].as_str().unwrap().to_owned()
 }
 
+/// `tile = "auto"`: one INFO line for the fixtures' 1280x720 frames, tiling them or not, and
+/// its arithmetic agrees with its decision (5 model runs against the 15 frames/s budget).
+fn assert_tiling_decided(stderr: &str) {
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("INFO") && l.contains("tiling 1280x720 frames"))
+        .collect();
+    assert_eq!(lines.len(), 1, "one decision per frame size: {stderr}");
+    let line = lines[0];
+    let number_after = |key: &str| -> f64 {
+        let at = line
+            .find(key)
+            .unwrap_or_else(|| panic!("{key:?} not in {line}"));
+        line[at + key.len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no number after {key:?} in {line}"))
+    };
+    assert_eq!(number_after("frames: "), 5.0, "{line}");
+    let run_ms = number_after("model runs of ");
+    let budget_ms = number_after(" the ");
+    assert_eq!(budget_ms, 67.0, "{line}");
+    let tiles = !line.contains("not tiling");
+    // The line rounds the run time to 0.1 ms: decide with a margin.
+    if (5.0 * run_ms - budget_ms).abs() > 0.5 {
+        assert_eq!(tiles, 5.0 * run_ms <= budget_ms, "{line}");
+    }
+}
+
 /// `backend = "auto"` where ONNX Runtime is found: all four (backend, model) pairs are timed,
 /// the log names both backends' times, and the fastest runs.
 #[test]
@@ -337,6 +368,7 @@ fn run_with_backend_auto_times_both_backends_and_runs_the_fastest() {
         "{stderr}"
     );
     assert!(stats["frames_processed"].as_u64().unwrap() > 0, "{stats}");
+    assert_tiling_decided(&stderr);
 }
 
 /// `backend = "auto"` without ONNX Runtime: the log says why it is not a candidate, and tract
@@ -353,4 +385,5 @@ fn run_with_backend_auto_without_onnxruntime_times_tract_only() {
         assert_chose_the_fastest(&stderr, &stats, &["tract"]),
         "tract"
     );
+    assert_tiling_decided(&stderr);
 }

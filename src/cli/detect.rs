@@ -129,6 +129,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tile_px: args.tile_size,
         overlap_px: args.tile_overlap,
         include_full_frame: true,
+        frame_budget_us: None,
     });
     let mut detector = Detector::load(config)?;
     let names = detector.model().class_names.clone();

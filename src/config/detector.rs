@@ -66,11 +66,16 @@ pub struct OnnxDetectorConfig {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub class_names: Option<Vec<String>>,
     /// Run the model on overlapping tiles at native resolution (plus the whole frame, for
-    /// objects larger than a tile), merged by NMS: for frames much larger than the model's
-    /// input (a 4K frame letterboxed into the shipped 800x448 input shrinks a 20 px swimmer to
-    /// 4 px). Costs one model run per tile (1280x720 in 800x448 tiles: 4 tiles + 1).
+    /// objects larger than a tile), merged by NMS: `false` (the default), `true`, or `"auto"`
+    /// (tile when the model runs a frame needs fit in the frame period of `tile_min_fps` at
+    /// the model run time measured at start; decided per frame size and logged). Costs one
+    /// model run per tile (1280x720 in 800x448 tiles: 4 tiles + 1); finds more of the small
+    /// objects (models/README.md, "Tiling").
     #[serde(default)]
-    pub tile: bool,
+    pub tile: TileChoice,
+    /// With `tile = "auto"`: the frame rate the detector must keep to tile (frames/s).
+    #[serde(default = "default_tile_min_fps")]
+    pub tile_min_fps: f64,
     /// Side of square tiles (px of the frame); absent: tiles of the model's input size (native
     /// resolution, no letterbox padding).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -103,6 +108,53 @@ fn default_max_detections() -> usize {
 }
 fn default_tile_overlap_px() -> u32 {
     64
+}
+fn default_tile_min_fps() -> f64 {
+    15.0
+}
+
+/// `[detector] tile`: `false`, `true` or `"auto"`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum TileChoice {
+    /// Whole frames only.
+    #[default]
+    Off,
+    /// Tiles plus the whole frame, on every frame.
+    On,
+    /// Tiles when they fit in the frame period of `tile_min_fps` (measured at start).
+    Auto,
+}
+
+impl Serialize for TileChoice {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            TileChoice::Off => s.serialize_bool(false),
+            TileChoice::On => s.serialize_bool(true),
+            TileChoice::Auto => s.serialize_str("auto"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TileChoice {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = TileChoice;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("true, false or \"auto\"")
+            }
+            fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<TileChoice, E> {
+                Ok(if v { TileChoice::On } else { TileChoice::Off })
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TileChoice, E> {
+                match v {
+                    "auto" => Ok(TileChoice::Auto),
+                    other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 /// The validated detector.
@@ -306,11 +358,21 @@ impl OnnxDetectorConfig {
         c.larger_box_iou = (self.larger_box_iou < 1.0).then_some(self.larger_box_iou);
         c.max_detections = self.max_detections;
         c.class_names = self.class_names.clone();
-        c.tiling = self.tile.then_some(TilingConfig {
+        let tiling = TilingConfig {
             tile_px: self.tile_size_px,
             overlap_px: self.tile_overlap_px,
             include_full_frame: true,
-        });
+            frame_budget_us: None,
+        };
+        c.tiling = match self.tile {
+            TileChoice::Off => None,
+            TileChoice::On => Some(tiling),
+            TileChoice::Auto => Some(TilingConfig {
+                frame_budget_us: (self.tile_min_fps > 0.0)
+                    .then(|| (1e6 / self.tile_min_fps).round() as u64),
+                ..tiling
+            }),
+        };
         c
     }
 
@@ -357,6 +419,13 @@ impl OnnxDetectorConfig {
     }
 
     fn check_tiles(&self, p: &mut Problems) {
+        let fps = self.tile_min_fps;
+        if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
+            p.push(
+                "detector.tile_min_fps",
+                format!("must be in (0, 1000] frames/s, got {fps}"),
+            );
+        }
         let (Some(t), overlap) = (self.tile_size_px, self.tile_overlap_px) else {
             return;
         };

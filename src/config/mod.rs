@@ -25,7 +25,9 @@ mod tests;
 
 pub use camera::{CameraConfig, CameraSettings};
 pub use cot::{CotConfig, CotEndpoint, CotSettings, CotTlsConfig, CotTypes};
-pub use detector::{DetectorConfig, DetectorSettings, OnnxDetectorConfig, OnnxSettings};
+pub use detector::{
+    DetectorConfig, DetectorSettings, OnnxDetectorConfig, OnnxSettings, TileChoice,
+};
 pub use frames::{FrameSettings, FramesConfig, ReconnectDelays};
 pub use geolocation::{GeolocationConfig, GeolocationSettings, DEFAULT_MAX_RANGE_M};
 pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings};

@@ -365,6 +365,42 @@ fn onnx_detector_tiling_keys() {
 }
 
 #[test]
+fn onnx_detector_tile_auto_sets_a_frame_budget() {
+    let auto = |extra: &str| {
+        Config::parse(&ONNX.replace(
+            "kind = \"onnx\"",
+            &format!("kind = \"onnx\"\ntile = \"auto\"{extra}"),
+        ))
+    };
+    let c = auto("").unwrap();
+    c.validate().unwrap();
+    let t = onnx_settings(&c).tiling.unwrap();
+    // 15 frames/s by default: 66.667 ms.
+    assert_eq!(t.frame_budget_us, Some(66_667));
+    let c = auto("\ntile_min_fps = 10").unwrap();
+    assert_eq!(
+        onnx_settings(&c).tiling.unwrap().frame_budget_us,
+        Some(100_000)
+    );
+    // `true` tiles every frame, with no budget.
+    let on =
+        Config::parse(&ONNX.replace("kind = \"onnx\"", "kind = \"onnx\"\ntile = true")).unwrap();
+    assert_eq!(onnx_settings(&on).tiling.unwrap().frame_budget_us, None);
+    assert_eq!(
+        problem_keys(&ONNX.replace(
+            "kind = \"onnx\"",
+            "kind = \"onnx\"\ntile = \"auto\"\ntile_min_fps = 0"
+        )),
+        ["detector.tile_min_fps"]
+    );
+    // Any other word is refused when parsing, naming what is accepted.
+    let e = Config::parse(&ONNX.replace("kind = \"onnx\"", "kind = \"onnx\"\ntile = \"yes\""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("true, false or \"auto\""), "{e}");
+}
+
+#[test]
 fn onnx_detector_problems_name_their_keys() {
     let text = ONNX
         .replace(

@@ -14,7 +14,7 @@ use super::backend::{init_backend, BackendConfig, BackendKind};
 use super::model::{detect_layout, read_metadata, ModelInfo, OutputLayout};
 use super::postprocess::{class_aware_nms, decode, larger_box_priority_suppression};
 use super::preprocess::{Preprocessor, Region};
-use super::tiling::{tile_grid, TilingConfig};
+use super::tiling::{keep_in_merge, tile_grid, TilingConfig};
 use super::{DetectError, Detection};
 
 /// Detector settings. The defaults suit the shipped model.
@@ -121,6 +121,11 @@ pub struct Detector {
     tensor: Vec<f32>,
     /// How each run goes after the warm-up (see [`Runner`]).
     runner: Runner,
+    /// Median model run (µs), measured at load when tiling has a frame budget.
+    model_run_us: Option<u64>,
+    /// Whether frames of a size are tiled, decided on the first frame of that size when
+    /// tiling has a frame budget.
+    tiled_sizes: Vec<((u32, u32), bool)>,
 }
 
 /// How the model runs per frame.
@@ -217,6 +222,8 @@ impl Detector {
             pre: Preprocessor::new(),
             tensor: vec![0.0; 3 * (in_w * in_h) as usize],
             runner: Runner::Plain,
+            model_run_us: None,
+            tiled_sizes: Vec::new(),
         };
         let dims = detector.run_raw(|dims, _| dims.to_vec())?;
         detector.runner = match backend {
@@ -259,7 +266,57 @@ impl Detector {
         info.category_ids = category_ids;
         tracing::info!(model = %path.display(), %backend, input_w = in_w, input_h = in_h, classes = ?info.class_names, categories = ?info.category_ids, candidates = n, "detector loaded");
         detector.info = info;
+        if detector
+            .config
+            .tiling
+            .is_some_and(|t| t.frame_budget_us.is_some())
+        {
+            detector.model_run_us = Some(detector.time_model_runs()?);
+        }
         Ok(detector)
+    }
+
+    /// The median of [`super::auto::TIMED_RUNS`] model runs after
+    /// [`super::auto::WARM_UP_RUNS`] warm-ups, in µs.
+    fn time_model_runs(&mut self) -> Result<u64, DetectError> {
+        use super::auto::{TIMED_RUNS, WARM_UP_RUNS};
+        let mut runs = Vec::with_capacity(TIMED_RUNS);
+        for k in 0..WARM_UP_RUNS + TIMED_RUNS {
+            let t = Instant::now();
+            self.run_raw(|_, _| ())?;
+            if k >= WARM_UP_RUNS {
+                runs.push(t.elapsed());
+            }
+        }
+        runs.sort();
+        let median = runs.get(runs.len() / 2).copied().unwrap_or_default();
+        Ok(u64::try_from(median.as_micros()).unwrap_or(u64::MAX))
+    }
+
+    /// Whether tiling is on for `fw x fh` frames in `regions` model runs: always without a
+    /// frame budget; with one (`tile = "auto"`), when the runs fit in it at the model run time
+    /// measured at load, decided once per frame size and logged.
+    fn tiles_frames_of(&mut self, fw: u32, fh: u32, regions: usize, t: &TilingConfig) -> bool {
+        let (Some(budget_us), Some(run_us)) = (t.frame_budget_us, self.model_run_us) else {
+            return true;
+        };
+        if let Some((_, on)) = self.tiled_sizes.iter().find(|(s, _)| *s == (fw, fh)) {
+            return *on;
+        }
+        let need_us = run_us.saturating_mul(regions as u64);
+        let on = need_us <= budget_us;
+        let (ms, need_ms, budget_ms) = (
+            run_us as f64 / 1000.0,
+            need_us as f64 / 1000.0,
+            budget_us as f64 / 1000.0,
+        );
+        if on {
+            tracing::info!(frame_w = fw, frame_h = fh, model_runs = regions, "detector: tiling {fw}x{fh} frames: {regions} model runs of {ms:.1} ms = {need_ms:.0} ms, within the {budget_ms:.0} ms frame budget (tile = \"auto\")");
+        } else {
+            tracing::info!(frame_w = fw, frame_h = fh, model_runs = regions, "detector: not tiling {fw}x{fh} frames: {regions} model runs of {ms:.1} ms = {need_ms:.0} ms, over the {budget_ms:.0} ms frame budget (tile = \"auto\"); whole frames only");
+        }
+        self.tiled_sizes.push(((fw, fh), on));
+        on
     }
 
     /// The model's interface (input size, classes, layout).
@@ -292,22 +349,29 @@ impl Detector {
         if fw == 0 || fh == 0 {
             return Ok((Vec::new(), timings));
         }
+        let (in_w, in_h) = (self.info.input_width_px, self.info.input_height_px);
+        let mut whole_frame_scale = None;
         let regions = match self.config.tiling {
             None => vec![Region::full(fw, fh)],
             Some(t) => {
-                let (tile_w, tile_h) = t.tile_px.map_or(
-                    (self.info.input_width_px, self.info.input_height_px),
-                    |side| (side, side),
-                );
+                let (tile_w, tile_h) = t.tile_px.map_or((in_w, in_h), |side| (side, side));
                 let mut r = tile_grid(fw, fh, tile_w, tile_h, t.overlap_px);
                 if t.include_full_frame && r.len() > 1 {
                     r.push(Region::full(fw, fh));
+                    whole_frame_scale =
+                        Some((in_w as f32 / fw as f32).min(in_h as f32 / fh as f32));
+                }
+                if r.len() > 1 && !self.tiles_frames_of(fw, fh, r.len(), &t) {
+                    whole_frame_scale = None;
+                    r = vec![Region::full(fw, fh)];
                 }
                 r
             }
         };
+        let tiled = regions.len() > 1;
         let mut candidates = Vec::new();
         for region in regions {
+            let first = candidates.len();
             let t0 = Instant::now();
             let lb = self.pre.letterbox(
                 frame,
@@ -354,6 +418,12 @@ impl Detector {
             }
             timings.inference += t1.elapsed().saturating_sub(decode_time);
             timings.postprocess += decode_time;
+            if tiled {
+                let from_region = candidates.split_off(first);
+                candidates.extend(from_region.into_iter().filter(|d: &Detection| {
+                    keep_in_merge(&d.bbox, &region, fw, fh, whole_frame_scale)
+                }));
+            }
         }
         let t2 = Instant::now();
         let mut dets = class_aware_nms(candidates, self.config.nms_iou, usize::MAX);

@@ -5,10 +5,39 @@
 //! overlapping windows at (close to) native resolution and merges the
 //! detections with NMS; an optional extra pass over the whole frame keeps the
 //! large objects that no single tile contains.
+//!
+//! The tiles and the whole-frame pass split the objects between them by size
+//! ([`keep_in_merge`]), so that no object is found twice, once per pass, with two classes
+//! or two boxes that NMS does not join:
+//! - a tile keeps the small objects it sees whole: none within [`TILE_EDGE_MARGIN_PX`] of one
+//!   of its edges inside the frame (an object the tile cut in two, which the neighbouring
+//!   tile, through the overlap, or the whole-frame pass sees whole), and none the whole-frame
+//!   pass sees at [`WHOLE_FRAME_OBJECT_PX`] or more;
+//! - the whole-frame pass keeps the objects it sees at [`WHOLE_FRAME_OBJECT_PX`] or more.
+//!
+//! Measured with `train/evaluate.py` on the tuning seeds (shipped fp32 model, whole 1280x720
+//! frames; whole frames alone mAP50 0.731): every box of every pass kept 0.808, the tile edge
+//! rule 0.814, and the tiles' size rule 0.847, with 1,600 false swimmers at score 0.25 on 882
+//! frames, most of them the whole-frame pass's second box of a swimmer a tile also found;
+//! with the whole-frame pass's size rule too, 0.844 and 288 false swimmers. Live, without the
+//! last rule, a tile's box of a life ring and the whole-frame pass's of the same ring stood
+//! side by side with two classes, and the tracker reported the ring as a jetski.
 
 use serde::{Deserialize, Serialize};
 
 use super::preprocess::Region;
+use super::PixelBox;
+
+/// A tile's box within this many frame pixels of one of the tile's edges inside the frame
+/// is cut by it ([`keep_in_merge`]).
+pub const TILE_EDGE_MARGIN_PX: f32 = 2.0;
+
+/// With the whole-frame pass on, a tile's box whose longer side would be at least this many
+/// pixels in the whole-frame pass's model input is left to that pass ([`keep_in_merge`]):
+/// 51 frame pixels for a 1280x720 frame in the shipped 800x448 input. Chosen on the tuning
+/// seeds (`train/evaluate.py --tile-max-px`, shipped fp32 model, 1280x720: 32 frame px mAP50
+/// 0.837, 48 px 0.848, 64 px 0.845, 96 px 0.825, 192 px 0.820).
+pub const WHOLE_FRAME_OBJECT_PX: f32 = 32.0;
 
 /// Tiling settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -22,6 +51,11 @@ pub struct TilingConfig {
     pub overlap_px: u32,
     /// Also run the whole frame letterboxed (for objects larger than a tile).
     pub include_full_frame: bool,
+    /// Tile only frames whose model runs (tiles, plus the whole frame) fit in this many
+    /// microseconds at the model run time measured at load (`tile = "auto"`: the frame
+    /// period of `tile_min_fps`); `None` tiles every frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_budget_us: Option<u64>,
 }
 
 impl Default for TilingConfig {
@@ -30,8 +64,36 @@ impl Default for TilingConfig {
             tile_px: None,
             overlap_px: 64,
             include_full_frame: true,
+            frame_budget_us: None,
         }
     }
+}
+
+/// Whether a detection `bbox` (frame pixels) from the model run on `region` joins a tiled
+/// frame's merge. `whole_frame_scale` is the whole-frame pass's letterbox scale (model input px
+/// per frame px) when that pass runs, `None` otherwise. See the module doc for the rules.
+pub fn keep_in_merge(
+    bbox: &PixelBox,
+    region: &Region,
+    frame_w: u32,
+    frame_h: u32,
+    whole_frame_scale: Option<f32>,
+) -> bool {
+    let large =
+        whole_frame_scale.is_some_and(|s| bbox.w_px.max(bbox.h_px) * s >= WHOLE_FRAME_OBJECT_PX);
+    if *region == Region::full(frame_w, frame_h) {
+        return large || whole_frame_scale.is_none();
+    }
+    let (x1, y1) = (bbox.x_px, bbox.y_px);
+    let (x2, y2) = (x1 + bbox.w_px, y1 + bbox.h_px);
+    let (tx1, ty1) = (region.x_px as f32, region.y_px as f32);
+    let (tx2, ty2) = (tx1 + region.w_px as f32, ty1 + region.h_px as f32);
+    let m = TILE_EDGE_MARGIN_PX;
+    let cut = (region.x_px > 0 && x1 <= tx1 + m)
+        || (region.y_px > 0 && y1 <= ty1 + m)
+        || (region.x_px + region.w_px < frame_w && x2 >= tx2 - m)
+        || (region.y_px + region.h_px < frame_h && y2 >= ty2 - m);
+    !cut && !large
 }
 
 /// Start offsets of tiles of length `tile` covering `0..len` with at least
@@ -74,6 +136,102 @@ pub fn tile_grid(width: u32, height: u32, tile_w: u32, tile_h: u32, overlap: u32
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    fn pbox(x: f32, y: f32, w: f32, h: f32) -> PixelBox {
+        PixelBox {
+            x_px: x,
+            y_px: y,
+            w_px: w,
+            h_px: h,
+        }
+    }
+
+    #[test]
+    fn the_whole_frame_pass_keeps_the_large_objects_only() {
+        let full = Region::full(1280, 720);
+        let scale = Some(0.625);
+        assert!(keep_in_merge(
+            &pbox(10.0, 10.0, 60.0, 20.0),
+            &full,
+            1280,
+            720,
+            scale
+        ));
+        assert!(!keep_in_merge(
+            &pbox(10.0, 10.0, 20.0, 20.0),
+            &full,
+            1280,
+            720,
+            scale
+        ));
+        // Without a whole-frame scale (no tiles), the whole frame keeps everything.
+        assert!(keep_in_merge(
+            &pbox(10.0, 10.0, 20.0, 20.0),
+            &full,
+            1280,
+            720,
+            None
+        ));
+    }
+
+    #[test]
+    fn a_tile_keeps_its_small_whole_objects_only() {
+        // The top-right tile of a 1280x720 frame: its left and bottom edges lie inside the
+        // frame, its top and right edges are the frame's.
+        let tile = Region {
+            x_px: 480,
+            y_px: 0,
+            w_px: 800,
+            h_px: 448,
+        };
+        let scale = Some(0.625);
+        // Small and inside: kept, also at the frame's own edges.
+        assert!(keep_in_merge(
+            &pbox(700.0, 200.0, 12.0, 10.0),
+            &tile,
+            1280,
+            720,
+            scale
+        ));
+        assert!(keep_in_merge(
+            &pbox(1268.0, 0.0, 12.0, 10.0),
+            &tile,
+            1280,
+            720,
+            scale
+        ));
+        // Cut by the left or bottom edge: left to the neighbour or the whole frame.
+        assert!(!keep_in_merge(
+            &pbox(480.5, 200.0, 12.0, 10.0),
+            &tile,
+            1280,
+            720,
+            scale
+        ));
+        assert!(!keep_in_merge(
+            &pbox(700.0, 437.0, 12.0, 10.0),
+            &tile,
+            1280,
+            720,
+            scale
+        ));
+        // 60 px is 37.5 px in the whole-frame pass's input: left to it...
+        assert!(!keep_in_merge(
+            &pbox(700.0, 200.0, 60.0, 20.0),
+            &tile,
+            1280,
+            720,
+            scale
+        ));
+        // ...unless that pass does not run.
+        assert!(keep_in_merge(
+            &pbox(700.0, 200.0, 60.0, 20.0),
+            &tile,
+            1280,
+            720,
+            None
+        ));
+    }
 
     #[test]
     fn small_frame_is_one_tile() {
