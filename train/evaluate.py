@@ -10,7 +10,10 @@ Two modes per model, both reported:
 * ``full``: the whole frame letterboxed into the model's input (one inference);
 * ``tiled``: what ``mgmot detect --tile`` does with its defaults: overlapping
   native-resolution tiles of the input's size (overlap 64 px) plus the whole
-  frame, merged by class-aware NMS.
+  frame, merged by class-aware NMS; as src/detect/tiling.rs does, a tile keeps
+  only the boxes it sees whole (none within 2 px of a tile edge inside the
+  frame) and small (under 32 px in the whole-frame pass's input), the
+  whole-frame pass only the others.
 
 Usage: python evaluate.py --models fp32.onnx int8.onnx --data DIR --json out.json
 """
@@ -82,17 +85,52 @@ def tile_starts(length, tile, overlap):
     return [i * span // (n - 1) for i in range(n)]
 
 
+TILE_EDGE_PX = 2.0  # src/detect/tiling.rs TILE_EDGE_MARGIN_PX
+WHOLE_FRAME_OBJECT_PX = 32.0  # src/detect/tiling.rs WHOLE_FRAME_OBJECT_PX
+
+
+def cut_by_tile(xyxy, x0, y0, tw, th, w, h, margin):
+    """Boxes of a tile at (x0, y0) that reach one of its edges inside the frame (within
+    ``margin`` px): objects the tile cuts in two, seen whole by another tile or the whole-frame
+    pass (src/detect/tiling.rs ``keep_from_tile``)."""
+    cut = np.zeros(len(xyxy), bool)
+    if x0 > 0:
+        cut |= xyxy[:, 0] <= x0 + margin
+    if y0 > 0:
+        cut |= xyxy[:, 1] <= y0 + margin
+    if x0 + tw < w:
+        cut |= xyxy[:, 2] >= x0 + tw - margin
+    if y0 + th < h:
+        cut |= xyxy[:, 3] >= y0 + th - margin
+    return cut
+
+
 def detect(sess, inp, size, img, tiled):
+    h, w = img.shape[:2]
     views = [(img, 0, 0)]
     if tiled:
-        h, w = img.shape[:2]
         th, tw = size  # src/detect/detector.rs: tiles of the model's input size
         views += [(img[y : y + th, x : x + tw], x, y) for y in tile_starts(h, th, 64) for x in tile_starts(w, tw, 64)]
     parts = []
     for view, x0, y0 in views:
         lb, scale, px, py = data.letterbox(np.ascontiguousarray(view), size)
         out = sess.run(None, {inp.name: data.to_tensor_chw(lb)[None]})[0][0]
-        parts.append(decode(out, scale, px, py, x0, y0))
+        b, s, c = decode(out, scale, px, py, x0, y0)
+        if tiled and WHOLE_FRAME_OBJECT_PX > 0 and (view.shape[0], view.shape[1]) == (h, w):
+            # ... and the whole-frame pass the large ones.
+            whole_scale = min(size[0] / h, size[1] / w)
+            keep = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) * whole_scale >= WHOLE_FRAME_OBJECT_PX
+            b, s, c = b[keep], s[keep], c[keep]
+        if (view.shape[0], view.shape[1]) != (h, w):
+            # src/detect/tiling.rs keep_from_tile: a tile keeps the small objects it sees whole.
+            keep = np.ones(len(b), bool)
+            if TILE_EDGE_PX >= 0:
+                keep &= ~cut_by_tile(b, x0, y0, view.shape[1], view.shape[0], w, h, TILE_EDGE_PX)
+            if WHOLE_FRAME_OBJECT_PX > 0:
+                whole_scale = min(size[0] / h, size[1] / w)
+                keep &= np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) * whole_scale < WHOLE_FRAME_OBJECT_PX
+            b, s, c = b[keep], s[keep], c[keep]
+        parts.append((b, s, c))
     return nms(*(np.concatenate(p) for p in zip(*parts)))
 
 
@@ -194,16 +232,24 @@ def format_confusion(m, names) -> str:
 
 
 def main():
+    global TILE_EDGE_PX, WHOLE_FRAME_OBJECT_PX
     ap = argparse.ArgumentParser()
     ap.add_argument("--models", nargs="+", required=True)
     ap.add_argument("--data", required=True, help="held-out sequences (COCO-style JSON + images)")
     ap.add_argument("--count", type=int, default=0, help="evaluate every k-th frame so that about this many remain (0: all)")
-    ap.add_argument("--tiled-every", type=int, default=3, help="tiled mode on every k-th of those frames (16 inferences each)")
+    ap.add_argument("--tiled-every", type=int, default=3, help="tiled mode on every k-th of those frames (5 model runs each at 1280x720)")
     ap.add_argument("--split", default="val", help="split of a SeaDronesSee-layout dataset")
     ap.add_argument("--modes", default="full", help="comma-separated: full (whole frames), tiled")
     ap.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads")
+    ap.add_argument("--tile-edge-px", type=float, default=TILE_EDGE_PX,
+                    help="tiled: drop a tile's boxes within this many px of an edge inside the frame (-1: keep all)")
+    ap.add_argument("--tile-large-px", type=float, default=WHOLE_FRAME_OBJECT_PX,
+                    help="tiled: objects the whole-frame pass sees at least this long (its model input px) "
+                         "are its, smaller ones the tiles' (0: every pass keeps every box)")
     ap.add_argument("--json")
     args = ap.parse_args()
+    TILE_EDGE_PX = args.tile_edge_px
+    WHOLE_FRAME_OBJECT_PX = args.tile_large_px
     samples = data.load_dataset(Path(args.data), args.split)
     if args.count:
         samples = samples[:: max(1, len(samples) // args.count)]

@@ -73,12 +73,14 @@ else
     render() { # split scenario seed
         local out="$DATA/$1/${2}_s$3"
         [[ -f "$out/annotations.json" ]] && return 0
-        local toml="$DATA/scenarios/${2}_s$3.toml" every variant=$1
+        local toml="$DATA/scenarios/${2}_s$3.toml" every variant=$1 format=jpg
         # tuning seeds and further training seeds: variants of the training conditions
         [[ $1 == tuning || $1 == train-extra ]] && variant=train
+        # the held-out seeds again, as lossless PNG (what an uncompressed camera delivers)
+        [[ $1 == heldout-lossless ]] && variant=heldout format=png
         every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$variant" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
-        "$SIM" render -s "$toml" -o "$out" --format jpg --every "$every" 2>/dev/null
+        "$SIM" render -s "$toml" -o "$out" --format "$format" --every "$every" 2>/dev/null
     }
     render_until() { # split min_frames first_seed: every scenario per seed until the split has min_frames
         local seed=$3
@@ -101,7 +103,7 @@ else
     # The further seeds follow the training ones, also when train/ was complete before this run.
     render_until train-extra "$EXTRA_FRAMES" $(( $(last_seed train) + 1 ))
     for sc in "${SCENARIOS[@]}"; do
-        for seed in 100001 100002; do render heldout "$sc" "$seed"; done
+        for seed in 100001 100002; do render heldout "$sc" "$seed"; render heldout-lossless "$sc" "$seed"; done
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
         # Tuning seeds (training conditions, seeds disjoint from both): choosing between
         # training recipes is done on these, so that the held-out figures stay unseen.
@@ -111,7 +113,8 @@ else
     "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
     TRAIN_DATA="$DATA/train"
     MORE_DATA=("$DATA/train-extra")
-    EVAL=("tuning:$DATA/tuning" "heldout:$DATA/heldout" "conditions:$DATA/conditions")
+    EVAL=("tuning:$DATA/tuning" "heldout:$DATA/heldout" "conditions:$DATA/conditions"
+        "heldout-lossless:$DATA/heldout-lossless")
 fi
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
@@ -150,7 +153,8 @@ fi
 for e in "${EVAL[@]}"; do
     name="${e%%:*}" dir="${e#*:}"
     "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$dir" --split val \
-        --count 600 --threads "$PY_THREADS" --json "$RUN/metrics-$name.json" | tee "$RUN/metrics-$name.txt"
+        --count 600 --modes full,tiled --tiled-every 1 --threads "$PY_THREADS" --json "$RUN/metrics-$name.json" \
+        | tee "$RUN/metrics-$name.txt"
 done
 "$PY" -c "
 import json, sys
