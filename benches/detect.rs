@@ -10,13 +10,15 @@
 //! ```
 //!
 //! Each stage is its own benchmark (`iter_custom` over `detect_timed`, summing
-//! only that stage), and `total` times the whole `detect` call.
+//! only that stage), `total` times the whole `detect` call, and `tiled-total` the whole call
+//! with tiling (`[detector] tile = true`: the 1280x720 frame in four 800x448 tiles plus the
+//! whole frame, merged).
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use mgmot::detect::{BackendConfig, BackendKind, Detector, DetectorConfig};
+use mgmot::detect::{BackendConfig, BackendKind, Detector, DetectorConfig, TilingConfig};
 
 fn bench_detect(c: &mut Criterion) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -41,6 +43,11 @@ fn bench_detect(c: &mut Criterion) {
             ort_dylib_path: None,
         };
         config.threads = 2;
+        let mut tiled = Detector::load(DetectorConfig {
+            tiling: Some(TilingConfig::default()),
+            ..config.clone()
+        })
+        .expect("load model");
         let mut det = Detector::load(config).expect("load model");
         type Stage = fn(&mgmot::detect::DetectTimings) -> Duration;
         let stages: [(&str, Stage); 3] = [
@@ -62,6 +69,9 @@ fn bench_detect(c: &mut Criterion) {
         }
         group.bench_function(format!("{label}/total"), |b| {
             b.iter(|| det.detect(&frame).expect("detect"))
+        });
+        group.bench_function(format!("{label}/tiled-total"), |b| {
+            b.iter(|| tiled.detect(&frame).expect("detect"))
         });
     }
     group.finish();
