@@ -423,7 +423,7 @@ pub fn select(
 }
 
 /// The median of `runs`.
-fn median(mut runs: Vec<Duration>) -> Duration {
+pub(super) fn median(mut runs: Vec<Duration>) -> Duration {
     runs.sort();
     runs.get(runs.len() / 2).copied().unwrap_or_default()
 }

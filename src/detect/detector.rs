@@ -288,8 +288,7 @@ impl Detector {
                 runs.push(t.elapsed());
             }
         }
-        runs.sort();
-        let median = runs.get(runs.len() / 2).copied().unwrap_or_default();
+        let median = super::auto::median(runs);
         Ok(u64::try_from(median.as_micros()).unwrap_or(u64::MAX))
     }
 
