@@ -401,6 +401,29 @@ struct Scores {
 
 fn score(f: &Flown) -> Scores {
     let (dir, sent, record) = (&f.dir, &f.sent, &f.record);
+    // Each drone's MGMOT_TRACK as sent, beside the ground's recording (a kept test folder,
+    // `MGMOT_KEEP_TEST_DIRS=1`, then holds what each drone said).
+    for (k, messages) in sent.iter().enumerate() {
+        let lines: Vec<String> = messages
+            .iter()
+            .filter_map(|s| match &s.msg {
+                MavMessage::MGMOT_TRACK(t) => Some(
+                    serde_json::json!({
+                        "time_usec": t.time_usec,
+                        "track_id": t.track_id,
+                        "class": t.object_class as u32,
+                        "state": t.state as u32,
+                        "flags": t.flags.bits(),
+                        "lat": t.lat,
+                        "lon": t.lon,
+                    })
+                    .to_string(),
+                ),
+                _ => None,
+            })
+            .collect();
+        dir.write(&format!("sent{k}.jsonl"), lines.join("\n"));
+    }
     // Scoring against the truth.
     let by = world_truth(&[
         read_truth(&dir.join("truth0/world.csv")),
