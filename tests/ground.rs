@@ -422,7 +422,7 @@ fn score(f: &Flown) -> Scores {
                 _ => None,
             })
             .collect();
-        dir.write(&format!("sent{k}.jsonl"), lines.join("\n"));
+        dir.write(format!("sent{k}.jsonl"), lines.join("\n"));
     }
     // Scoring against the truth.
     let by = world_truth(&[
