@@ -11,15 +11,23 @@ use std::collections::HashMap;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
-/// Parses every MAVLink 2 message in the datagrams received until `stop`.
+/// Parses every MAVLink 2 message in the datagrams received until `stop`, and then those
+/// still queued in the socket (a loaded machine can read behind the sender; stopping at `stop`
+/// itself, CI once counted 32 ATTITUDE of a lockstep run's 38-44).
 fn collect_udp(sock: &UdpSocket, stop: impl Fn() -> bool) -> Vec<MavMessage> {
     sock.set_read_timeout(Some(Duration::from_millis(100)))
         .unwrap();
     let mut msgs = Vec::new();
     let mut buf = [0u8; 2048];
     let deadline = Instant::now() + Duration::from_secs(60);
-    while !stop() && Instant::now() < deadline {
-        let Ok(n) = sock.recv(&mut buf) else { continue };
+    while Instant::now() < deadline {
+        let stopped = stop();
+        let n = match sock.recv(&mut buf) {
+            Ok(n) => n,
+            // Nothing for 100 ms after `stop`: the queue is drained.
+            Err(_) if stopped => break,
+            Err(_) => continue,
+        };
         let mut reader = mavlink::MavlinkReader::new(&buf[..n]);
         while let Ok((_, m)) = reader.read_message::<MavMessage>(mavlink::MavlinkVersion::V2) {
             msgs.push(m);
