@@ -33,8 +33,9 @@ pub const TILE_EDGE_MARGIN_PX: f32 = 2.0;
 /// With the whole-frame pass on, a tile's box whose longer side would be at least this many
 /// pixels in the whole-frame pass's model input is left to that pass ([`keep_in_merge`]):
 /// 51 frame pixels for a 1280x720 frame in the shipped 800x448 input. Chosen on the tuning
-/// seeds (`train/evaluate.py --tile-max-px`, shipped fp32 model, 1280x720: 32 frame px mAP50
-/// 0.837, 48 px 0.848, 64 px 0.845, 96 px 0.825, 192 px 0.820).
+/// seeds (shipped fp32 model, 1280x720, the tiles' rule alone, thresholds in frame pixels:
+/// 32 px mAP50 0.837, 48 px 0.848, 64 px 0.845, 96 px 0.825, 192 px 0.820); in this
+/// model-input form it is `train/evaluate.py --tile-large-px`.
 pub const WHOLE_FRAME_OBJECT_PX: f32 = 32.0;
 
 /// Tiling settings.
