@@ -19,6 +19,7 @@ classes int64 (n,))``. Class ids follow ``classes.CLASS_NAMES``. Torch-free.
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -151,6 +152,24 @@ def letterbox(img: np.ndarray, size, pad_value: int = 114):
     px, py = (out_w - nw) // 2, (out_h - nh) // 2
     out[py : py + nh, px : px + nw] = resized
     return out, scale, px, py
+
+
+def compress_view(img: np.ndarray, rng, share: float, qmin: int, qmax: int) -> np.ndarray:
+    """A training view JPEG-encoded and decoded, with probability ``share``, at a quality
+    drawn uniformly from ``[qmin, qmax]`` with 4:2:0 chroma (as cameras and the renderer
+    encode); otherwise the view as it is (lossless). ``rng``: a numpy Generator.
+
+    Trained on lossless renders this way, the model sees both a compressed stream and
+    an uncompressed one (YUYV / NV12, PNG): one trained on JPEG alone read the missing
+    compression at native resolution as other classes (models/README.md).
+    """
+    if share <= 0.0 or rng.random() >= share:
+        return img
+    quality = int(rng.integers(qmin, qmax + 1))
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, format="JPEG", quality=quality, subsampling=2)
+    buf.seek(0)
+    return np.asarray(Image.open(buf).convert("RGB"))
 
 
 def to_tensor_chw(img: np.ndarray) -> np.ndarray:

@@ -25,6 +25,26 @@ def check(cond, what):
     print(f"ok: {what}")
 
 
+def check_compress_view(img):
+    """Stage 5's augmentation: lossless or JPEG at a random quality, same shape, deterministic."""
+    import numpy as np
+
+    view = np.ascontiguousarray(img[:192, :192])
+    same = data.compress_view(view, np.random.default_rng(1), 0.0, 40, 100)
+    check(same is view, "share 0 leaves every view lossless")
+    low = data.compress_view(view, np.random.default_rng(1), 1.0, 10, 10)
+    check(low.shape == view.shape and low.dtype == np.uint8, f"a compressed view keeps its shape ({low.shape})")
+    err = float(np.abs(low.astype(np.int16) - view.astype(np.int16)).mean())
+    check(err > 0.5, f"quality 10 changes the pixels (mean abs difference {err:.2f})")
+    near = data.compress_view(view, np.random.default_rng(1), 1.0, 100, 100)
+    err100 = float(np.abs(near.astype(np.int16) - view.astype(np.int16)).mean())
+    check(err100 < err, f"quality 100 changes them less than 10 ({err100:.2f} < {err:.2f})")
+    a = [data.compress_view(view, np.random.default_rng(7), 0.5, 40, 100) for _ in range(2)]
+    check((a[0] == a[1]).all(), "the same generator seed gives the same view")
+    kept = sum(data.compress_view(view, g, 0.67, 40, 100) is view for g in (np.random.default_rng(s) for s in range(300)))
+    check(70 <= kept <= 130, f"share 0.67 leaves about a third lossless ({kept} of 300)")
+
+
 def main():
     seq = Path(sys.argv[1])
     sim = data.load_coco_dir(seq)
@@ -52,6 +72,7 @@ def main():
         check(True, "boxes and classes match the simulator's frame by frame")
         img = data.read_image(sds[0][0])
         check(img.ndim == 3 and img.shape[2] == 3, f"images decode as RGB ({img.shape})")
+        check_compress_view(img)
         # Bad input is refused with a message that says what is wrong.
         try:
             data.load_seadronessee(root, "test")

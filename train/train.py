@@ -44,7 +44,7 @@ def class_weights(samples, nc: int, power: float) -> np.ndarray:
     return (counts.max() / np.maximum(counts, 1)) ** power
 
 
-def random_view(sample, size, rng, weights=None, scales=(0.2, 1.0), whole_frame=0.1):
+def random_view(sample, size, rng, weights=None, scales=(0.2, 1.0), whole_frame=0.1, native=0.0, jpeg=(0.0, 85, 85)):
     """One size x size training view of a frame: (image, boxes, classes).
 
     The frame is scaled by a log-uniform factor in ``scales``: 0.62 is what a
@@ -53,16 +53,21 @@ def random_view(sample, size, rng, weights=None, scales=(0.2, 1.0), whole_frame=
     tile``). 70 % of the views are placed so that they contain the centre of a
     random labelled object (most of a frame is empty sea), the rest anywhere; a
     ``whole_frame`` share are the whole frame letterboxed into the view (objects
-    far smaller than the runtime ever sees them: 0.15 at 192 px).
+    far smaller than the runtime ever sees them: 0.15 at 192 px). A ``native`` share of
+    the other views are at scale 1 exactly (what a tile reads). ``jpeg`` (share, qmin,
+    qmax): the whole frame is JPEG-encoded at a random quality before it is scaled, as a
+    camera encodes at its own resolution (``data.compress_view``).
     """
     path, boxes, classes = sample
     im = Image.open(path)
+    if jpeg[0] > 0.0:
+        im = Image.fromarray(data.compress_view(np.asarray(im.convert("RGB")), rng, *jpeg))
     w0, h0 = im.size
     if rng.random() < whole_frame:
         img = np.asarray(im.convert("RGB"))
         out, s, px, py = data.letterbox(img, size)
         return out, boxes * s + np.array([px, py, px, py], np.float32), classes.copy()
-    s = math.exp(rng.uniform(math.log(scales[0]), math.log(scales[1])))
+    s = 1.0 if rng.random() < native else math.exp(rng.uniform(math.log(scales[0]), math.log(scales[1])))
     nw, nh = max(1, round(w0 * s)), max(1, round(h0 * s))
     im.draft("RGB", (nw, nh))  # JPEG: decode at a reduced DCT scale when possible
     img = np.asarray(im.convert("RGB").resize((nw, nh), Image.BILINEAR))
@@ -178,10 +183,11 @@ class Batches(torch.utils.data.IterableDataset):
     Deterministic: one worker, its own generator seeded from ``seed``.
     """
 
-    def __init__(self, samples, crop: int, batch: int, seed: int, balance: float = 0.0, scales=(0.2, 1.0), whole_frame=0.1):
+    def __init__(self, samples, crop: int, batch: int, seed: int, balance: float = 0.0, scales=(0.2, 1.0), whole_frame=0.1,
+                 jpeg=(0.0, 85, 85), native=0.0):
         super().__init__()
         self.samples, self.crop, self.batch, self.seed = samples, crop, batch, seed
-        self.scales, self.whole_frame = scales, whole_frame
+        self.scales, self.whole_frame, self.jpeg, self.native = scales, whole_frame, jpeg, native
         # Rarer classes more often: a frame is drawn in proportion to the weight of its
         # rarest-class object, and the view is centred on an object drawn by class weight.
         self.weights = class_weights(samples, len(data.class_names()), balance) if balance > 0 else None
@@ -198,7 +204,8 @@ class Batches(torch.utils.data.IterableDataset):
                     i = int(rng.integers(0, len(self.samples)))
                 else:
                     i = int(rng.choice(len(self.samples), p=self.frame_p))
-                img, boxes, classes = random_view(self.samples[i], self.crop, rng, self.weights, self.scales, self.whole_frame)
+                img, boxes, classes = random_view(self.samples[i], self.crop, rng, self.weights, self.scales, self.whole_frame,
+                                                  self.native, self.jpeg)
                 img, boxes = augment(img, boxes, rng)
                 imgs.append(torch.from_numpy(data.to_tensor_chw(img)))
                 targets.append((torch.from_numpy(boxes.astype(np.float32)), torch.from_numpy(classes)))
@@ -227,7 +234,21 @@ def main():
                          "800x448 input on a whole 1280x720 frame; 1: native tiles)")
     ap.add_argument("--whole-frame", type=float, default=0.1,
                     help="share of views that are the whole frame letterboxed into the crop")
+    ap.add_argument("--jpeg", default="0,85,85",
+                    help="SHARE,QMIN,QMAX: JPEG-encode this share of frames at a quality in [QMIN, QMAX] (4:2:0) "
+                         "before they are scaled, the rest stay as read; for lossless (PNG) training frames (0: off)")
+    ap.add_argument("--native", type=float, default=0.0,
+                    help="share of views at scale 1 exactly (a native-resolution tile), the rest log-uniform in --scales")
     args = ap.parse_args()
+    try:
+        jshare, jqmin, jqmax = (float(v) for v in args.jpeg.split(","))
+    except ValueError as e:
+        raise SystemExit(f"error: --jpeg wants SHARE,QMIN,QMAX (three numbers), got {args.jpeg!r}") from e
+    if not (0.0 <= jshare <= 1.0 and 1 <= jqmin <= jqmax <= 100):
+        raise SystemExit(f"error: --jpeg wants 0 <= SHARE <= 1 and 1 <= QMIN <= QMAX <= 100, got {args.jpeg!r}")
+    jpeg = (jshare, int(jqmin), int(jqmax))
+    if not 0.0 <= args.native <= 1.0:
+        raise SystemExit(f"error: --native wants a share in [0, 1], got {args.native}")
     try:
         lo, hi = (float(v) for v in args.scales.split(","))
     except ValueError as e:
@@ -256,7 +277,7 @@ def main():
     print(f"TinyDet: {nparams} parameters", flush=True)
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=5e-4)
     loader = torch.utils.data.DataLoader(
-        Batches(samples, args.crop, args.batch, args.seed, args.balance, (lo, hi), args.whole_frame), batch_size=None, num_workers=1, prefetch_factor=4
+        Batches(samples, args.crop, args.batch, args.seed, args.balance, (lo, hi), args.whole_frame, jpeg, args.native), batch_size=None, num_workers=1, prefetch_factor=4
     )
     batches = iter(loader)
     if args.init_onnx:
