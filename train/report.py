@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import sys
 
-SPLITS = {"tuning": "tuning seeds", "heldout": "held-out seeds", "conditions": "held-out conditions",
+SPLITS = {"tuning": "tuning seeds", "tuning-lossless": "tuning seeds, lossless PNG", "heldout": "held-out seeds", "conditions": "held-out conditions",
           "heldout-lossless": "held-out seeds, lossless PNG", "val": "val split"}
 SHORT = {"life_saving_appliances": "lifesaving"}
 

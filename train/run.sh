@@ -69,7 +69,7 @@ else
         (cd "$ROOT" && cargo build --release -p mgmot-sim)
         SIM="$ROOT/target/release/mgmot-sim"
     fi
-    count_frames() { find "$1" -name '*.jpg' 2>/dev/null | wc -l; }
+    count_frames() { find "$1" \( -name '*.jpg' -o -name '*.png' \) 2>/dev/null | wc -l; }
     render() { # split scenario seed
         local out="$DATA/$1/${2}_s$3"
         [[ -f "$out/annotations.json" ]] && return 0
@@ -78,6 +78,8 @@ else
         [[ $1 == tuning || $1 == train-extra ]] && variant=train
         # the held-out seeds again, as lossless PNG (what an uncompressed camera delivers)
         [[ $1 == heldout-lossless ]] && variant=heldout format=png
+        # and the tuning seeds, to choose recipes for uncompressed frames
+        [[ $1 == tuning-lossless ]] && variant=train format=png
         every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$variant" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format "$format" --every "$every" 2>/dev/null
@@ -107,14 +109,14 @@ else
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
         # Tuning seeds (training conditions, seeds disjoint from both): choosing between
         # training recipes is done on these, so that the held-out figures stay unseen.
-        for seed in 50001 50002; do render tuning "$sc" "$seed"; done
+        for seed in 50001 50002; do render tuning "$sc" "$seed"; render tuning-lossless "$sc" "$seed"; done
     done
     echo "frames: train $(count_frames "$DATA/train"), further training $(count_frames "$DATA/train-extra"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
     "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
     TRAIN_DATA="$DATA/train"
     MORE_DATA=("$DATA/train-extra")
-    EVAL=("tuning:$DATA/tuning" "heldout:$DATA/heldout" "conditions:$DATA/conditions"
-        "heldout-lossless:$DATA/heldout-lossless")
+    EVAL=("tuning:$DATA/tuning" "tuning-lossless:$DATA/tuning-lossless" "heldout:$DATA/heldout"
+        "conditions:$DATA/conditions" "heldout-lossless:$DATA/heldout-lossless")
 fi
 [[ "${MGMOT_TRAIN_STOP:-}" == data ]] && exit 0
 
