@@ -155,9 +155,10 @@ def letterbox(img: np.ndarray, size, pad_value: int = 114):
 
 
 def compress_view(img: np.ndarray, rng, share: float, qmin: int, qmax: int) -> np.ndarray:
-    """A training view JPEG-encoded and decoded, with probability ``share``, at a quality
-    drawn uniformly from ``[qmin, qmax]`` with 4:2:0 chroma (as cameras and the renderer
-    encode); otherwise the view as it is (lossless). ``rng``: a numpy Generator.
+    """An RGB image (``train.py``: a whole frame, before it is scaled) JPEG-encoded and
+    decoded, with probability ``share``, at a quality drawn uniformly from ``[qmin, qmax]``
+    with 4:2:0 chroma (as cameras and the renderer encode); otherwise the same array,
+    untouched (lossless). ``rng``: a numpy Generator.
 
     Trained on lossless renders this way, the model sees both a compressed stream and
     an uncompressed one (YUYV / NV12, PNG): one trained on JPEG alone read the missing

@@ -61,7 +61,10 @@ def random_view(sample, size, rng, weights=None, scales=(0.2, 1.0), whole_frame=
     path, boxes, classes = sample
     im = Image.open(path)
     if jpeg[0] > 0.0:
-        im = Image.fromarray(data.compress_view(np.asarray(im.convert("RGB")), rng, *jpeg))
+        rgb = np.asarray(im.convert("RGB"))
+        out = data.compress_view(rgb, rng, *jpeg)
+        if out is not rgb:  # compressed; an untouched frame keeps its decoded image
+            im = Image.fromarray(out)
     w0, h0 = im.size
     if rng.random() < whole_frame:
         img = np.asarray(im.convert("RGB"))
