@@ -13,10 +13,19 @@ SPLITS = {"tuning": "tuning seeds", "tuning-lossless": "tuning seeds, lossless P
 SHORT = {"life_saving_appliances": "lifesaving"}
 
 
+def splits(doc: dict):
+    """(split, report) pairs: the main models' splits, then the tile model's (``tile_model``)."""
+    for split, report in doc.items():
+        if split == "tile_model":
+            yield from report.items()
+        else:
+            yield split, report
+
+
 def per_class_table(doc: dict) -> list[str]:
     names = None
     rows = []
-    for split, report in doc.items():
+    for split, report in splits(doc):
         for model, modes in report["models"].items():
             for mode, m in modes.items():
                 ap = m["ap50_per_class"]
@@ -38,7 +47,7 @@ def per_class_table(doc: dict) -> list[str]:
 
 def confusion_tables(doc: dict, model_suffix: str = "fp32") -> list[str]:
     out = []
-    for split, report in doc.items():
+    for split, report in splits(doc):
         for model, modes in report["models"].items():
             if model_suffix not in model:
                 continue

@@ -21,6 +21,8 @@
 #   MGMOT_TRAIN_DATA     a SeaDronesSee-layout dataset (images/{train,val}/, annotations/instances_{train,val}.json):
 #                        train on its train split, evaluate on its val split; nothing is rendered
 #   MGMOT_SIM            a prebuilt mgmot-sim binary  [built: target/release/mgmot-sim]
+#   MGMOT_TRAIN_TILE_MINUTES  the tile model's fine-tune, stage 5 (renders only; 0: none) [30]
+#   MGMOT_TRAIN_TILE_SEEDS  training seeds rendered again as lossless PNG for stage 5 [20]
 #   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
 # Seeds and splits (renders): training uses seeds 1, 2, ... (every scenario per seed) until
 # MGMOT_TRAIN_FRAMES frames exist (train/), then the next seeds until MGMOT_TRAIN_EXTRA_FRAMES
@@ -37,6 +39,8 @@ MINUTES="${MGMOT_TRAIN_MINUTES:-40}"
 FT_MINUTES="${MGMOT_TRAIN_FT_MINUTES:-15}"
 SCALE_MINUTES="${MGMOT_TRAIN_SCALE_MINUTES:-45}"
 MORE_MINUTES="${MGMOT_TRAIN_MORE_MINUTES:-50}"
+TILE_MINUTES="${MGMOT_TRAIN_TILE_MINUTES:-30}"
+TILE_SEEDS="${MGMOT_TRAIN_TILE_SEEDS:-20}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
 EXTRA_FRAMES="${MGMOT_TRAIN_EXTRA_FRAMES:-5000}"
 PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
@@ -57,7 +61,9 @@ cd "$HERE"
 PY_THREADS="${MGMOT_TRAIN_THREADS:-1}"
 EVAL=()
 if [[ -n "${MGMOT_TRAIN_DATA:-}" ]]; then
-    # 2'. Real footage in the SeaDronesSee layout: nothing to render.
+    # 2'. Real footage in the SeaDronesSee layout: nothing to render, and no tile model (stage 5
+    #     is for renders' lossless frames; real footage shows the model its own camera's pixels).
+    TILE_MINUTES=0
     "$PY" -c "import data, sys; s = data.load_seadronessee(sys.argv[1], 'train'); print(f'{len(s)} training frames in', sys.argv[1])" "$MGMOT_TRAIN_DATA"
     TRAIN_DATA="$MGMOT_TRAIN_DATA"
     MORE_DATA=()
@@ -80,6 +86,8 @@ else
         [[ $1 == heldout-lossless ]] && variant=heldout format=png
         # and the tuning seeds, to choose recipes for uncompressed frames
         [[ $1 == tuning-lossless ]] && variant=train format=png
+        # and the training seeds, for the tile model (stage 5)
+        [[ $1 == train-lossless ]] && variant=train format=png
         every="$("$PY" scenarios.py --sim-dir "$ROOT/sim/scenarios" --name "$2" --seed "$3" --split "$variant" --out "$toml" --frames "$PER_SEQ")"
         rm -rf "$out"
         "$SIM" render -s "$toml" -o "$out" --format "$format" --every "$every" 2>/dev/null
@@ -104,6 +112,12 @@ else
     render_until train "$FRAMES" 1
     # The further seeds follow the training ones, also when train/ was complete before this run.
     render_until train-extra "$EXTRA_FRAMES" $(( $(last_seed train) + 1 ))
+    if (( TILE_MINUTES > 0 )); then
+        for seed in $(seq 1 "$TILE_SEEDS"); do
+            for sc in "${SCENARIOS[@]}"; do render train-lossless "$sc" "$seed"; done
+        done
+        echo "rendered train-lossless seeds 1-$TILE_SEEDS: $(count_frames "$DATA/train-lossless") frames"
+    fi
     for sc in "${SCENARIOS[@]}"; do
         for seed in 100001 100002; do render heldout "$sc" "$seed"; render heldout-lossless "$sc" "$seed"; done
         for seed in 200001 200002 200003; do render conditions "$sc" "$seed"; done
@@ -152,26 +166,54 @@ fi
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
 "$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 384
+# 5. The tile model (renders only): stage 4 fine-tuned on the training seeds rendered again as
+#    lossless PNG, half the frames JPEG-compressed before scaling and 30 % of the views at scale
+#    1, what a tile of an uncompressed camera's frame shows. `mgmot run` runs it on the frames it
+#    tiles (`[detector] tile_model`); models/README.md, "The tile model". Its int8 model is
+#    calibrated on 320 frames, the count at which tract and ONNX Runtime agree on the test's
+#    fixtures (whole and tiled).
+if (( TILE_MINUTES > 0 )); then
+    "$PY" train.py --data "$DATA/train-lossless" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$TILE_MINUTES" \
+        --seed 6 --lr 1.5e-4 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --jpeg 0.5,60,95 --native 0.3 \
+        --init-onnx "$RUN/mgmot-det-fp32.onnx" --out "$RUN/tinydet-tiles.pt"
+    "$PY" export.py --ckpt "$RUN/tinydet-tiles.pt" --size 448,800 --out "$RUN/mgmot-det-tiles-fp32.onnx" \
+        --description "mgmot TinyDet five-class SeaDronesSee tile model, trained on mgmot-sim frames, lossless and JPEG"
+    "$PY" quantize.py --fp32 "$RUN/mgmot-det-tiles-fp32.onnx" --out "$RUN/mgmot-det-tiles-int8.onnx" \
+        --data "$DATA/train-lossless" --count 320
+fi
 for e in "${EVAL[@]}"; do
     name="${e%%:*}" dir="${e#*:}"
     "$PY" evaluate.py --models "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" --data "$dir" --split val \
         --count 600 --modes full,tiled --tiled-every 1 --threads "$PY_THREADS" --json "$RUN/metrics-$name.json" \
         | tee "$RUN/metrics-$name.txt"
+    if (( TILE_MINUTES > 0 )); then
+        "$PY" evaluate.py --models "$RUN/mgmot-det-tiles-fp32.onnx" "$RUN/mgmot-det-tiles-int8.onnx" --data "$dir" \
+            --split val --count 600 --modes full,tiled --tiled-every 1 --threads "$PY_THREADS" \
+            --json "$RUN/metrics-tiles-$name.json" | tee "$RUN/metrics-tiles-$name.txt"
+    fi
 done
 "$PY" -c "
 import json, sys
 run = sys.argv[1]
 names = sys.argv[2:]
-json.dump({n: json.load(open(f'{run}/metrics-{n}.json')) for n in names}, open(f'{run}/metrics.json', 'w'), indent=2)
+import os
+out = {n: json.load(open(f'{run}/metrics-{n}.json')) for n in names}
+tiles = {n: json.load(open(f'{run}/metrics-tiles-{n}.json')) for n in names if os.path.exists(f'{run}/metrics-tiles-{n}.json')}
+if tiles:
+    out['tile_model'] = tiles
+json.dump(out, open(f'{run}/metrics.json', 'w'), indent=2)
 " "$RUN" "${EVAL[@]%%:*}"
 
 if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
     cp "$RUN/mgmot-det-fp32.onnx" "$RUN/mgmot-det-int8.onnx" "$ROOT/models/"
+    # the tile model ships int8 only: tiling is affordable on ONNX Runtime int8 (models/README.md)
+    if (( TILE_MINUTES > 0 )); then cp "$RUN/mgmot-det-tiles-int8.onnx" "$ROOT/models/"; fi
     cp "$RUN/metrics.json" "$ROOT/models/metrics.json"
     "$PY" -c "
 import json, sys
 run = sys.argv[1]
-stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet-stage3'), (4, 'tinydet'))}
+import os
+stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet-stage3'), (4, 'tinydet'), (5, 'tinydet-tiles')) if i < 5 or os.path.exists(f'{run}/{n}.log.json')}
 json.dump(stages, open(sys.argv[2], 'w'), indent=1)
 " "$RUN" "$ROOT/models/training-log.json"
     [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"
