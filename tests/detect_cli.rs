@@ -19,6 +19,7 @@ fn fixtures() -> PathBuf {
 
 const INT8: &str = "models/mgmot-det-int8.onnx";
 const FP32: &str = "models/mgmot-det-fp32.onnx";
+const TILES: &str = "models/mgmot-det-tiles-int8.onnx";
 
 /// Runs `mgmot detect --json` and returns the parsed results.
 fn detect_json(model: &str, backend: &str, extra: &[&str]) -> Vec<Value> {
@@ -209,22 +210,29 @@ fn tract_and_onnxruntime_agree_on_the_shipped_models() {
     // 1.2e-4 px / 7e-7 on every frame tried; int8 agrees on these fixtures but
     // differs by up to 3.7 px / 9e-3 on a few boxes of other held-out frames,
     // where the engines round requantisations differently (models/README.md,
-    // "Backend parity").
-    for (model, score_tol) in [(FP32, 1e-3), (INT8, 1e-3)] {
-        let tract = detect_json(model, "tract", &[]);
-        let ort = detect_json(model, "onnxruntime", &["--ort-lib", lib.to_str().unwrap()]);
+    // "Backend parity"). The tile model runs tiled frames, so it is compared tiled too.
+    let cases: [(&str, &[&str], f64); 4] = [
+        (FP32, &[], 1e-3),
+        (INT8, &[], 1e-3),
+        (TILES, &[], 1e-3),
+        (TILES, &["--tile"], 1e-3),
+    ];
+    for (model, mode, score_tol) in cases {
+        let tract = detect_json(model, "tract", mode);
+        let ort_args = [mode, &["--ort-lib", lib.to_str().unwrap()]].concat();
+        let ort = detect_json(model, "onnxruntime", &ort_args);
         assert!(!tract.is_empty(), "{model}: no detections to compare");
         assert_covered(
             &tract,
             &ort,
             score_tol,
-            &format!("{model} tract -> onnxruntime"),
+            &format!("{model} {mode:?} tract -> onnxruntime"),
         );
         assert_covered(
             &ort,
             &tract,
             score_tol,
-            &format!("{model} onnxruntime -> tract"),
+            &format!("{model} {mode:?} onnxruntime -> tract"),
         );
     }
 }

@@ -18,6 +18,7 @@ fn fixture(name: &str) -> PathBuf {
 
 const INT8: &str = "models/mgmot-det-int8.onnx";
 const FP32: &str = "models/mgmot-det-fp32.onnx";
+const TILES: &str = "models/mgmot-det-tiles-int8.onnx";
 
 fn load(path: &Path) -> Result<Detector, DetectError> {
     Detector::load(DetectorConfig::new(path))
@@ -200,6 +201,72 @@ fn tiling_with_a_frame_budget_tiles_only_what_fits() {
     };
     assert_eq!(run(budget(1)), whole);
     assert_eq!(run(budget(u64::MAX)), tiled);
+}
+
+/// `tile_model`: the frames that are tiled run the tile model (their tiles and their
+/// whole-frame pass, exactly what the tile model gives tiled on its own), the frames that are
+/// not (tiling off, or over a `tile = "auto"` frame budget) the main model, exactly.
+#[test]
+fn a_tile_model_runs_the_tiled_frames_and_only_those() {
+    let frame = image::open(fixture("sim_heldout_a.jpg")).unwrap().to_rgb8();
+    let run = |model: &str, tiling: Option<TilingConfig>, tile_model: Option<&str>| {
+        let mut cfg = DetectorConfig::new(root().join(model));
+        cfg.tiling = tiling;
+        cfg.tile_model = tile_model.map(|m| root().join(m));
+        Detector::load(cfg).unwrap().detect(&frame).unwrap()
+    };
+    let tiling = Some(TilingConfig::default());
+    let whole = run(INT8, None, None);
+    let tiles_alone = run(TILES, tiling, None);
+    assert!(!tiles_alone.is_empty());
+    assert_ne!(
+        tiles_alone,
+        run(INT8, tiling, None),
+        "the two models tile this frame alike"
+    );
+    assert_eq!(run(INT8, tiling, Some(TILES)), tiles_alone);
+    assert_eq!(run(INT8, None, Some(TILES)), whole);
+    let over_budget = Some(TilingConfig {
+        frame_budget_us: Some(1),
+        ..TilingConfig::default()
+    });
+    assert_eq!(run(INT8, over_budget, Some(TILES)), whole);
+    let within_budget = Some(TilingConfig {
+        frame_budget_us: Some(u64::MAX),
+        ..TilingConfig::default()
+    });
+    assert_eq!(run(INT8, within_budget, Some(TILES)), tiles_alone);
+}
+
+/// A tile model with other classes than the main model's is refused at load, naming both
+/// files; a missing one names its file.
+#[test]
+fn a_tile_model_must_have_the_main_models_classes() {
+    let dir = tempfile::tempdir().unwrap();
+    // The tile model with its `swimmer` renamed (same length: the protobuf stays valid).
+    let mut bytes = std::fs::read(root().join(TILES)).unwrap();
+    let at = bytes.windows(9).position(|w| w == b"'swimmer'").unwrap();
+    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
+    let renamed = dir.path().join("renamed-tiles.onnx");
+    std::fs::write(&renamed, bytes).unwrap();
+    let with_tiles = |tile_model: PathBuf| {
+        let mut cfg = DetectorConfig::new(root().join(INT8));
+        cfg.tiling = Some(TilingConfig::default());
+        cfg.tile_model = Some(tile_model);
+        Detector::load(cfg).unwrap_err()
+    };
+    let e = with_tiles(renamed);
+    assert!(matches!(e, DetectError::InvalidConfig(_)), "{e:?}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("renamed-tiles.onnx")
+            && msg.contains("mgmot-det-int8.onnx")
+            && msg.contains("swimmex"),
+        "{msg}"
+    );
+    let e = with_tiles(dir.path().join("gone.onnx"));
+    assert!(matches!(e, DetectError::ModelRead { .. }), "{e:?}");
+    assert!(e.to_string().contains("gone.onnx"), "{e}");
 }
 
 #[test]

@@ -83,6 +83,13 @@ pub struct OnnxDetectorConfig {
     /// Overlap between neighbouring tiles (px); at least the largest object to keep whole.
     #[serde(default = "default_tile_overlap_px")]
     pub tile_overlap_px: u32,
+    /// With `tile` on or `"auto"`: the model that runs the frames that are tiled (their tiles
+    /// and their whole-frame pass), on the backend chosen for `model`; it must have `model`'s
+    /// classes and input size. Frames that are not tiled run `model`. Absent: `model` runs
+    /// every frame. The shipped `mgmot-det-tiles-int8.onnx` learned on uncompressed frames
+    /// too, which the shipped model's tiles misread (models/README.md, "The tile model").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile_model: Option<PathBuf>,
 }
 
 fn one_u64() -> u64 {
@@ -233,6 +240,7 @@ impl DetectorSettings {
             }
         };
         check_alternatives(settings, model_ok, p);
+        check_tile_model(settings, model_ok, p);
         match settings.backend {
             BackendChoice::Tract => return,
             BackendChoice::Auto if onnx.backend.ort_dylib_path.is_none() => return,
@@ -308,6 +316,51 @@ fn check_alternatives(settings: &OnnxSettings, model_ok: bool, p: &mut Problems)
     }
 }
 
+/// `detector.tile_model`: a readable file with the main model's class names and input size
+/// (compared only when the main model, `model_ok`, is readable). Checked with tiling off too:
+/// a file named in the configuration that is not there is a mistake either way.
+fn check_tile_model(settings: &OnnxSettings, model_ok: bool, p: &mut Problems) {
+    use crate::detect::auto::ModelInterface;
+    let detector = &settings.detector;
+    let Some(tile_model) = &detector.tile_model else {
+        return;
+    };
+    if let Err(why) = readable_file(tile_model) {
+        p.push(
+            "detector.tile_model",
+            format!("{}: {why}", tile_model.display()),
+        );
+        return;
+    }
+    if !model_ok {
+        return;
+    }
+    let (main, tiles) = match (
+        ModelInterface::read(&detector.model_path),
+        ModelInterface::read(tile_model),
+    ) {
+        (Ok(main), Ok(tiles)) => (main, tiles),
+        // With alternatives, `check_alternatives` has reported the main model's problem.
+        (Err(e), _) => {
+            if settings.alternatives.is_empty() {
+                p.push("detector.model", e.to_string());
+            }
+            return;
+        }
+        (_, Err(e)) => return p.push("detector.tile_model", e.to_string()),
+    };
+    if let Some(why) = tiles.mismatch(&main) {
+        p.push(
+            "detector.tile_model",
+            format!(
+                "{} cannot run the tiles of {}: {why}",
+                tile_model.display(),
+                detector.model_path.display()
+            ),
+        );
+    }
+}
+
 /// `Ok` when `path` is a file this process can open for reading; otherwise why not.
 fn readable_file(path: &Path) -> Result<(), String> {
     match std::fs::metadata(path) {
@@ -358,6 +411,7 @@ impl OnnxDetectorConfig {
         c.larger_box_iou = (self.larger_box_iou < 1.0).then_some(self.larger_box_iou);
         c.max_detections = self.max_detections;
         c.class_names = self.class_names.clone();
+        c.tile_model = self.tile_model.clone();
         let tiling = TilingConfig {
             tile_px: self.tile_size_px,
             overlap_px: self.tile_overlap_px,
@@ -385,6 +439,13 @@ impl OnnxDetectorConfig {
         }
         if self.alternatives.iter().any(|a| a.as_os_str().is_empty()) {
             p.push("detector.alternatives", "must name ONNX model files");
+        }
+        if self
+            .tile_model
+            .as_ref()
+            .is_some_and(|m| m.as_os_str().is_empty())
+        {
+            p.push("detector.tile_model", "must name an ONNX model file");
         }
         if self.threads == 0 {
             p.push("detector.threads", "must be >= 1");

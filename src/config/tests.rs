@@ -269,22 +269,46 @@ fn onnx_detector_backend_auto_and_alternatives() {
     assert_eq!(again.detector, c.detector);
 }
 
+/// `model` with the class name `from` (quoted, as in the `names` metadata) renamed to `to`,
+/// of the same length so that the protobuf stays valid, written to `out`.
+fn with_class_renamed(model: &Path, from: &str, to: &str, out: &Path) {
+    assert_eq!(from.len(), to.len());
+    let (from, to) = (format!("'{from}'"), format!("'{to}'"));
+    let mut bytes = std::fs::read(model).unwrap();
+    let at = bytes
+        .windows(from.len())
+        .position(|w| w == from.as_bytes())
+        .unwrap();
+    bytes[at..at + to.len()].copy_from_slice(to.as_bytes());
+    std::fs::write(out, bytes).unwrap();
+}
+
+/// What `check_files` finds in the configuration `text` (which must validate), as
+/// "key: problem" lines.
+fn file_problems(text: &str) -> Vec<String> {
+    let settings = Config::parse(text).unwrap().validate().unwrap();
+    let mut p = super::problems::Problems::default();
+    settings.detector.check_files(&mut p);
+    if p.is_empty() {
+        return Vec::new();
+    }
+    p.into_vec()
+        .into_iter()
+        .map(|p| format!("{}: {}", p.key, p.problem))
+        .collect()
+}
+
 /// `check_files` (what `mgmot check-config` adds): a missing alternative, and one with other
 /// classes or another input size, are problems under `detector.alternatives`; under `auto` a
 /// configured ONNX Runtime library must exist, one from `ORT_DYLIB_PATH` need not.
 #[test]
 fn onnx_detector_alternatives_are_checked_on_disk() {
-    use super::problems::Problems;
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let fp32 = repo.join("models/mgmot-det-fp32.onnx");
     let int8 = repo.join("models/mgmot-det-int8.onnx");
-    // The fp32 model with its `swimmer` renamed (same length: the protobuf stays valid).
-    let mut bytes = std::fs::read(&fp32).unwrap();
-    let at = bytes.windows(9).position(|w| w == b"'swimmer'").unwrap();
-    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
     let renamed = dir.path().join("renamed.onnx");
-    std::fs::write(&renamed, bytes).unwrap();
+    with_class_renamed(&fp32, "swimmer", "swimmex", &renamed);
     let missing = dir.path().join("gone.onnx");
     let problems = |backend: &str, alternatives: &[&Path], ort: Option<&Path>| {
         let mut text = ONNX
@@ -306,16 +330,7 @@ fn onnx_detector_alternatives_are_checked_on_disk() {
             ),
             None => text.replace("ort_library = \"/opt/onnxruntime/libonnxruntime.so\"\n", ""),
         };
-        let settings = Config::parse(&text).unwrap().validate().unwrap();
-        let mut p = Problems::default();
-        settings.detector.check_files(&mut p);
-        if p.is_empty() {
-            return Vec::new();
-        }
-        p.into_vec()
-            .into_iter()
-            .map(|p| format!("{}: {}", p.key, p.problem))
-            .collect::<Vec<_>>()
+        file_problems(&text)
     };
     assert_eq!(problems("auto", &[&fp32], None), Vec::<String>::new());
     let found = problems("tract", &[&fp32, &missing, &renamed], None);
@@ -334,6 +349,62 @@ fn onnx_detector_alternatives_are_checked_on_disk() {
     let found = problems("auto", &[], Some(&missing));
     assert_eq!(found.len(), 1, "{found:?}");
     assert!(found[0].starts_with("detector.ort_library: "), "{found:?}");
+}
+
+/// `tile_model` reaches the detector's settings and round-trips; an empty one is a problem;
+/// `check_files` wants it readable, with the main model's classes and input size.
+#[test]
+fn onnx_detector_tile_model() {
+    let with = |lines: &str| ONNX.replace("kind = \"onnx\"", &format!("kind = \"onnx\"\n{lines}"));
+    let c = Config::parse(ONNX).unwrap();
+    assert_eq!(onnx_settings(&c).tile_model, None);
+    let text = with("tile = \"auto\"\ntile_model = \"models/mgmot-det-tiles-int8.onnx\"");
+    let c = Config::parse(&text).unwrap();
+    assert_eq!(
+        onnx_settings(&c).tile_model,
+        Some(PathBuf::from("models/mgmot-det-tiles-int8.onnx"))
+    );
+    let again = Config::parse(&toml::to_string(&c).unwrap()).unwrap();
+    assert_eq!(again.detector, c.detector);
+    assert_eq!(
+        problem_keys(&with("tile_model = \"\"")),
+        ["detector.tile_model"]
+    );
+
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let int8 = repo.join("models/mgmot-det-int8.onnx");
+    let tiles = repo.join("models/mgmot-det-tiles-int8.onnx");
+    let renamed = dir.path().join("renamed.onnx");
+    with_class_renamed(&tiles, "boat", "boot", &renamed);
+    let problems = |tile_model: &Path| {
+        let text = ONNX
+            .replace("models/mgmot-det-int8.onnx", &int8.display().to_string())
+            .replace("class_names = [\"swimmer\", \"boat\"]\n", "")
+            .replace(
+                "kind = \"onnx\"",
+                &format!(
+                    "kind = \"onnx\"\nbackend = \"tract\"\ntile = true\ntile_model = {:?}",
+                    tile_model.display().to_string()
+                ),
+            );
+        file_problems(&text)
+    };
+    assert_eq!(problems(&tiles), Vec::<String>::new());
+    let found = problems(&dir.path().join("gone.onnx"));
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].starts_with("detector.tile_model: ") && found[0].contains("gone.onnx"),
+        "{found:?}"
+    );
+    let found = problems(&renamed);
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].starts_with("detector.tile_model: ")
+            && found[0].contains("renamed.onnx")
+            && found[0].contains("class names"),
+        "{found:?}"
+    );
 }
 
 fn onnx_settings(c: &Config) -> crate::detect::DetectorConfig {

@@ -39,6 +39,12 @@ pub struct DetectorConfig {
     pub class_names: Option<Vec<String>>,
     /// Overlapping tiles for large frames; `None` letterboxes the whole frame once.
     pub tiling: Option<TilingConfig>,
+    /// With tiling on: the model that runs the frames that are tiled (their tiles and their
+    /// whole-frame pass), loaded beside `model_path` on the same backend; it must have the
+    /// same input size and classes. Frames that are not tiled (tiling off, or `tile = "auto"`
+    /// over its frame budget) run `model_path`. `None`: `model_path` runs every frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile_model: Option<PathBuf>,
 }
 
 /// Default IoU of the class-aware NMS. 0.3, not the usual 0.5: the shipped model puts two or
@@ -63,6 +69,7 @@ impl DetectorConfig {
             max_detections: 300,
             class_names: None,
             tiling: None,
+            tile_model: None,
         }
     }
 
@@ -92,6 +99,15 @@ impl DetectorConfig {
                     "tile size must be positive".into(),
                 ));
             }
+        }
+        if self
+            .tile_model
+            .as_ref()
+            .is_some_and(|m| m.as_os_str().is_empty())
+        {
+            return Err(DetectError::InvalidConfig(
+                "tile_model must name an ONNX model file".into(),
+            ));
         }
         Ok(())
     }
@@ -126,6 +142,8 @@ pub struct Detector {
     /// Whether frames of a size are tiled, decided on the first frame of that size when
     /// tiling has a frame budget.
     tiled_sizes: Vec<((u32, u32), bool)>,
+    /// The detector of [`DetectorConfig::tile_model`], which runs the tiled frames.
+    tile_detector: Option<Box<Detector>>,
 }
 
 /// How the model runs per frame.
@@ -224,6 +242,7 @@ impl Detector {
             runner: Runner::Plain,
             model_run_us: None,
             tiled_sizes: Vec::new(),
+            tile_detector: None,
         };
         let dims = detector.run_raw(|dims, _| dims.to_vec())?;
         detector.runner = match backend {
@@ -273,7 +292,65 @@ impl Detector {
         {
             detector.model_run_us = Some(detector.time_model_runs()?);
         }
+        detector.tile_detector = detector.load_tile_detector()?.map(Box::new);
         Ok(detector)
+    }
+
+    /// The detector of [`DetectorConfig::tile_model`] when tiling is on: the same settings,
+    /// tiling every frame it is handed (this detector decides which frames are tiled), and
+    /// the same input size and classes as this one. Not loaded when a frame budget rules
+    /// tiling out for every frame size.
+    fn load_tile_detector(&self) -> Result<Option<Detector>, DetectError> {
+        let (Some(tiling), Some(tile_model)) = (self.config.tiling, &self.config.tile_model) else {
+            return Ok(None);
+        };
+        // A tiled frame is at least two tiles (plus the whole-frame pass): when even that
+        // does not fit the frame budget, no frame will be tiled and the tile model never runs.
+        let fewest_runs: u64 = if tiling.include_full_frame { 3 } else { 2 };
+        if let (Some(budget_us), Some(run_us)) = (tiling.frame_budget_us, self.model_run_us) {
+            if run_us.saturating_mul(fewest_runs) > budget_us {
+                tracing::info!(tile_model = %tile_model.display(), "detector: tile model not loaded: {fewest_runs} model runs of {:.1} ms, the fewest a tiled frame needs, are over the {:.0} ms frame budget (tile = \"auto\")", run_us as f64 / 1000.0, budget_us as f64 / 1000.0);
+                return Ok(None);
+            }
+        }
+        let config = DetectorConfig {
+            model_path: tile_model.clone(),
+            tiling: Some(TilingConfig {
+                frame_budget_us: None,
+                ..tiling
+            }),
+            tile_model: None,
+            ..self.config.clone()
+        };
+        let inner = Detector::load(config)?;
+        let (main, tiles) = (&self.info, &inner.info);
+        let mismatch = if (main.input_width_px, main.input_height_px)
+            != (tiles.input_width_px, tiles.input_height_px)
+        {
+            Some(format!(
+                "its input is {}x{}, the model's {}x{}",
+                tiles.input_width_px,
+                tiles.input_height_px,
+                main.input_width_px,
+                main.input_height_px
+            ))
+        } else if main.category_ids != tiles.category_ids {
+            Some(format!(
+                "its classes are {:?}, the model's {:?}",
+                tiles.class_names, main.class_names
+            ))
+        } else {
+            None
+        };
+        if let Some(why) = mismatch {
+            return Err(DetectError::InvalidConfig(format!(
+                "tile model {} cannot run the tiles of {}: {why}",
+                tile_model.display(),
+                main.path.display()
+            )));
+        }
+        tracing::info!(model = %main.path.display(), tile_model = %tile_model.display(), "detector: tiled frames run the tile model");
+        Ok(Some(inner))
     }
 
     /// The median of [`super::auto::TIMED_RUNS`] model runs after
@@ -368,6 +445,11 @@ impl Detector {
             }
         };
         let tiled = regions.len() > 1;
+        if tiled {
+            if let Some(tiles) = self.tile_detector.as_mut() {
+                return tiles.detect_timed(frame);
+            }
+        }
         let mut candidates = Vec::new();
         for region in regions {
             let first = candidates.len();
