@@ -154,7 +154,12 @@ kind = "onnx"
 model = "$repo/models/mgmot-det-fp32.onnx"
 backend = "$backend"
 EOF
-if [ "$backend" = onnxruntime ]; then echo "ort_library = \"$ort\"" >> "$out/mgmot.toml"; fi
+if [ "$backend" = onnxruntime ]; then
+  # As the example configuration: int8 on ONNX Runtime, tiles when they fit 15 frames/s, run
+  # by the tile model (models/README.md, "The tile model").
+  sed -i "s|^model = \"$repo/models/mgmot-det-fp32.onnx\"|model = \"$repo/models/mgmot-det-int8.onnx\"|" "$out/mgmot.toml"
+  printf 'ort_library = "%s"\ntile = "auto"\ntile_model = "%s/models/mgmot-det-tiles-int8.onnx"\n' "$ort" "$repo" >> "$out/mgmot.toml"
+fi
 printf '\n[recording]\ndir = "%s/flights"\nkeyframe_every_s = 5.0\n' "$out" >> "$out/mgmot.toml"
 
 # The ground side: one mgmot ground on the router (MGMOT_TRACK), one on SITL's second radio,

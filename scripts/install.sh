@@ -74,7 +74,7 @@ docdir="$root$prefix/share/doc/mgmot"
 etcdir="$root/etc/mgmot"
 unitdir="$root/etc/systemd/system"
 statedir="$root/var/lib/mgmot"
-models=(mgmot-det-int8.onnx mgmot-det-fp32.onnx)
+models=(mgmot-det-int8.onnx mgmot-det-fp32.onnx mgmot-det-tiles-int8.onnx)
 
 if [ "$system" = 1 ] && [ "$(id -u)" -ne 0 ]; then
   echo "install: run as root (sudo), or with --no-system for the files only" >&2

@@ -101,6 +101,7 @@ fn install_upgrade_uninstall_and_purge_into_a_destdir() {
         "opt/mgmot/share/doc/mgmot/README.md",
         "opt/mgmot/share/mgmot/models/mgmot-det-fp32.onnx",
         "opt/mgmot/share/mgmot/models/mgmot-det-int8.onnx",
+        "opt/mgmot/share/mgmot/models/mgmot-det-tiles-int8.onnx",
     ]
     .into_iter()
     .map(String::from)

@@ -109,8 +109,9 @@ pub fn example_config_here(dir: &TestDir) -> PathBuf {
 }
 
 /// The shipped example with its `[detector]` lines `model`, `backend` and `ort_library` set as
-/// given (`None`: the line left out) and its `alternatives` left out (the installed fp32
-/// model: one candidate, nothing timed at start), written into `dir` as `mgmot.toml`.
+/// given (`None`: the line left out), its `alternatives` left out (the installed fp32
+/// model: one candidate, nothing timed at start) and its `tile_model` the repository's,
+/// written into `dir` as `mgmot.toml`.
 pub fn example_config_with_detector(
     dir: &TestDir,
     model: &Path,
@@ -127,6 +128,9 @@ pub fn example_config_with_detector(
             out += &format!("backend = {backend:?}\n");
         } else if line.starts_with("alternatives = ") {
             continue;
+        } else if line.starts_with("tile_model = ") {
+            let tiles = repo_file("models/mgmot-det-tiles-int8.onnx");
+            out += &format!("tile_model = {:?}\n", tiles.display().to_string());
         } else if line.starts_with("ort_library = ") {
             if let Some(lib) = ort_library {
                 out += &format!("ort_library = {:?}\n", lib.display().to_string());
