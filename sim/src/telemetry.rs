@@ -9,12 +9,12 @@ use crate::world::{World, REBOOT_SILENCE_S};
 // ground stations read; the simulator sends it alongside the gimbal protocol v2 message.
 use mavlink::Message;
 use mgmot_wire::dialect::{
-    GimbalDeviceFlags, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType,
+    GimbalDeviceFlags, GpsFixType, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType,
 };
 #[allow(deprecated)]
 use mgmot_wire::dialect::{
     MavMessage, ATTITUDE_DATA, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
-    GIMBAL_DEVICE_ATTITUDE_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,
+    GIMBAL_DEVICE_ATTITUDE_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, HEARTBEAT_DATA,
     HOME_POSITION_DATA, MOUNT_ORIENTATION_DATA, SYSTEM_TIME_DATA, TIMESYNC_DATA,
 };
 use nalgebra::{UnitQuaternion, Vector3};
@@ -41,11 +41,17 @@ pub enum Stream {
     HomePosition,
     /// SYSTEM_TIME, 1 Hz.
     SystemTime,
+    /// GPS_RAW_INT, 1 Hz: the receiver's fix with its horizontal accuracy (`h_acc`).
+    GpsRawInt,
 }
+
+/// The smallest horizontal accuracy the simulated receiver claims (m): a receiver never says
+/// it is exact, and MAVLink's `h_acc` of 0 means "not reported".
+pub const GPS_MIN_H_ACC_M: f64 = 0.01;
 
 impl Stream {
     /// All streams.
-    pub const ALL: [Stream; 7] = [
+    pub const ALL: [Stream; 8] = [
         Stream::Heartbeat,
         Stream::GlobalPositionInt,
         Stream::Attitude,
@@ -53,6 +59,7 @@ impl Stream {
         Stream::MountOrientation,
         Stream::HomePosition,
         Stream::SystemTime,
+        Stream::GpsRawInt,
     ];
 
     /// MAVLink message id.
@@ -65,13 +72,14 @@ impl Stream {
             Stream::MountOrientation => 265,
             Stream::HomePosition => 242,
             Stream::SystemTime => 2,
+            Stream::GpsRawInt => 24,
         }
     }
 
     /// Default interval.
     pub fn default_interval_s(self) -> f64 {
         match self {
-            Stream::Heartbeat | Stream::SystemTime => 1.0,
+            Stream::Heartbeat | Stream::SystemTime | Stream::GpsRawInt => 1.0,
             Stream::GlobalPositionInt
             | Stream::GimbalDeviceAttitudeStatus
             | Stream::MountOrientation => 0.1,
@@ -390,6 +398,28 @@ impl<'w> Autopilot<'w> {
                 time_unix_usec: ((w.scenario.origin.start_unix_s + t) * 1e6).round() as u64,
                 time_boot_ms: boot_ms,
             }),
+            Stream::GpsRawInt => {
+                // The reported (noisy) position, as GLOBAL_POSITION_INT; `h_acc` is the
+                // receiver's 1-sigma horizontal error, `faults.gps_noise_m`, in mm.
+                let g = self.frame.to_geodetic(&Vector3::from(rep.pos_ned_m));
+                let [vn, ve, _] = rep.vel_ned_mps;
+                let h_acc_m = w.scenario.faults.gps_noise_m.max(GPS_MIN_H_ACC_M);
+                MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                    time_usec: u64::from(boot_ms) * 1000,
+                    lat: (g.lat_deg * 1e7).round() as i32,
+                    lon: (g.lon_deg * 1e7).round() as i32,
+                    alt: (g.alt_m * 1000.0).round() as i32,
+                    eph: 80,
+                    epv: 120,
+                    vel: (vn.hypot(ve) * 100.0).round().min(65534.0) as u16,
+                    cog: ((ve.atan2(vn).to_degrees().rem_euclid(360.0) * 100.0).round() as u16)
+                        % 36000,
+                    fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+                    satellites_visible: 14,
+                    h_acc: (h_acc_m * 1000.0).round() as u32,
+                    ..Default::default()
+                })
+            }
         }
     }
 
@@ -517,6 +547,27 @@ mod tests {
         assert!((count(Stream::GlobalPositionInt) - 100.0).abs() <= 5.0);
         assert!((count(Stream::Heartbeat) - 10.0).abs() <= 1.0);
         assert!(msgs.windows(2).all(|p| p[0].0 <= p[1].0));
+    }
+
+    /// GPS_RAW_INT carries the reported position and the receiver's 1-sigma horizontal error,
+    /// `faults.gps_noise_m`, as `h_acc` in mm (at least [`GPS_MIN_H_ACC_M`]), with a 3D fix.
+    #[test]
+    fn gps_raw_int_reports_the_scenarios_gps_noise() {
+        for (name, h_acc_mm) in [("gimbal_pitch_bias", 800), ("calm_baseline", 10)] {
+            let w = world(name);
+            let ap = Autopilot::new(&w).unwrap();
+            let MavMessage::GPS_RAW_INT(g) = ap.message(Stream::GpsRawInt, 3.0) else {
+                panic!("not GPS_RAW_INT");
+            };
+            let MavMessage::GLOBAL_POSITION_INT(p) = ap.message(Stream::GlobalPositionInt, 3.0)
+            else {
+                panic!("not GLOBAL_POSITION_INT");
+            };
+            assert_eq!(g.h_acc, h_acc_mm, "{name}");
+            assert_eq!(g.fix_type, GpsFixType::GPS_FIX_TYPE_3D_FIX);
+            assert_eq!((g.lat, g.lon, g.alt), (p.lat, p.lon, p.alt), "{name}");
+            assert_eq!(g.time_usec, u64::from(p.time_boot_ms) * 1000);
+        }
     }
 
     #[test]
