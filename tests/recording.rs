@@ -155,6 +155,27 @@ fn a_recorded_flight_replays_exactly_and_its_tlog_opens_in_pymavlink() {
         with_pose * 10 > flight.frames.len() * 9,
         "{with_pose} frames with a pose"
     );
+    // The simulator's receiver reports its accuracy in GPS_RAW_INT (calm_baseline has no GPS
+    // noise: the receiver's floor, 1 cm); the poses carry it from the first report on, and the
+    // replay below geolocates with it.
+    let accuracies: Vec<Option<f64>> = flight
+        .frames
+        .iter()
+        .filter_map(|f| f.pose.as_ref())
+        .map(|p| p.horizontal_accuracy_m)
+        .collect();
+    let reported = accuracies.iter().filter(|a| **a == Some(0.01)).count();
+    assert!(
+        reported * 10 > accuracies.len() * 9
+            && accuracies.iter().all(|a| a.is_none_or(|m| m == 0.01)),
+        "{reported} of {} poses with the receiver's accuracy: {:?}",
+        accuracies.len(),
+        accuracies
+            .iter()
+            .filter(|a| **a != Some(0.01))
+            .take(5)
+            .collect::<Vec<_>>()
+    );
     let geolocated = flight
         .frames
         .iter()

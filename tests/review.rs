@@ -141,6 +141,7 @@ fn frame_record(n: u64) -> FrameRecord {
             alt_m: WATER_AMSL_M + 30.0,
             height_above_sea_m: 30.0,
             attitude_wxyz: [q.w, q.i, q.j, q.k],
+            horizontal_accuracy_m: None,
         }),
         no_pose: None,
         water_amsl_m: Some(WATER_AMSL_M),

@@ -230,6 +230,10 @@ fn check_decoders(msg: &MavMessage, from_component: u8, time_us: u64) {
                 assert!(geodetic_ok(&h), "{name}: {h:?}");
                 name == "HOME_POSITION"
             }
+            Incoming::GnssAccuracy { h_acc_m } => {
+                assert!(h_acc_m.is_finite() && h_acc_m > 0.0, "{name}: {h_acc_m}");
+                name == "GPS_RAW_INT"
+            }
             Incoming::TimeSyncAnswer { tc1_ns, .. } => tc1_ns != 0 && name == "TIMESYNC",
             Incoming::Command { .. }
             | Incoming::CameraInformationRequest

@@ -34,7 +34,9 @@ pub use mavlink::{MavlinkConfig, MavlinkSettings, SigningConfig, SigningSettings
 pub use outputs::{OutputSettings, OutputsConfig};
 pub use problems::{Problem, Problems};
 pub use recording::{RecordingConfig, RecordingSettings};
-pub use telemetry::{GimbalReport, PlausibilityConfig, TelemetryConfig, TelemetrySettings};
+pub use telemetry::{
+    GimbalReport, PlausibilityConfig, TelemetryConfig, TelemetrySettings, GNSS_ACCURACY_MAX_AGE_MS,
+};
 
 use crate::track::TrackerParams;
 use serde::{Deserialize, Serialize};

@@ -30,7 +30,15 @@ pub struct TelemetryConfig {
     pub gimbal_report: GimbalReport,
     /// `[telemetry.plausibility]`: what the vehicle can do; samples beyond it are refused.
     pub plausibility: PlausibilityConfig,
+    /// Use the GNSS receiver's own horizontal accuracy (GPS_RAW_INT `h_acc`, when the
+    /// autopilot reports it with a fix, no older than [`GNSS_ACCURACY_MAX_AGE_MS`]) as the
+    /// drone position's noise in each frame's geolocation covariance, instead of
+    /// `geolocation.noise.horizontal_position_std_m` (which stays the fallback).
+    pub gnss_accuracy: bool,
 }
+
+/// GPS_RAW_INT's `h_acc` describes frames captured at most this long from its arrival (ms).
+pub const GNSS_ACCURACY_MAX_AGE_MS: u64 = 5_000;
 
 /// `[telemetry.plausibility]`: telemetry that cannot be true is refused (counted, reported to
 /// the operator once per episode) and never moves a track. See `mgmot_core::telemetry`'s
@@ -132,6 +140,7 @@ impl Default for TelemetryConfig {
             fixed_mount_pitch_deg: None,
             gimbal_report: GimbalReport::AsFlagged,
             plausibility: PlausibilityConfig::default(),
+            gnss_accuracy: true,
         }
     }
 }
@@ -153,6 +162,8 @@ pub struct TelemetrySettings {
     pub gimbal_report: GimbalReport,
     /// What the vehicle can do: samples beyond it are refused.
     pub plausibility: PlausibilityLimits,
+    /// Whether the receiver's reported horizontal accuracy is the position noise.
+    pub gnss_accuracy: bool,
 }
 
 impl TelemetryConfig {
@@ -205,6 +216,7 @@ impl TelemetryConfig {
             lost_after: lost_after?,
             fixed_mount_pitch_deg: fixed_mount_pitch_deg?,
             gimbal_report: self.gimbal_report,
+            gnss_accuracy: self.gnss_accuracy,
         })
     }
 }

@@ -326,6 +326,7 @@ mod tests {
             position: Geodetic::new(54.18, 7.89, 62.0).unwrap(),
             height_above_sea_m: 60.0,
             camera_attitude: camera_from_heading_pitch_deg(heading_deg, pitch_deg, 0.0),
+            horizontal_accuracy_m: None,
         };
         let vfov = 2.0 * (35f64.to_radians().tan() * 9.0 / 16.0).atan().to_degrees();
         let view = CameraView::of_frame(&meta, 70.0, vfov);

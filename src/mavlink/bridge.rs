@@ -66,6 +66,14 @@ pub enum TelemetryUpdate {
     },
     /// The home position (HOME_POSITION; altitude AMSL).
     Home(Geodetic),
+    /// The GNSS receiver's horizontal accuracy (GPS_RAW_INT `h_acc`, with a fix), arrived at
+    /// `at`.
+    GnssAccuracy {
+        /// Horizontal accuracy (m).
+        h_acc_m: f64,
+        /// Arrival time.
+        at: CompanionTimeUs,
+    },
     /// A TIMESYNC round trip answering one of our requests.
     TimeSync {
         /// Our request's companion time.
@@ -194,6 +202,9 @@ impl Inbox {
                 at,
             }),
             Incoming::Home(h) => telemetry(TelemetryUpdate::Home(h)),
+            Incoming::GnssAccuracy { h_acc_m } => {
+                telemetry(TelemetryUpdate::GnssAccuracy { h_acc_m, at })
+            }
             c if c.is_command() => self.command(c, r),
             _ => None,
         }

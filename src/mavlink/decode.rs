@@ -56,6 +56,12 @@ pub enum Incoming {
     },
     /// HOME_POSITION (altitude AMSL).
     Home(Geodetic),
+    /// GPS_RAW_INT with a fix and a horizontal accuracy (`h_acc`, sent as mm; 0, what a sender
+    /// that does not fill the MAVLink 2 extension leaves, is "not reported").
+    GnssAccuracy {
+        /// The receiver's horizontal position accuracy (m).
+        h_acc_m: f64,
+    },
     /// A TIMESYNC answer to our request: `ts1_ns` is the companion time we sent, `tc1_ns`
     /// the autopilot's.
     TimeSyncAnswer {
@@ -179,6 +185,12 @@ pub fn decode(
                     f64::from(p.vz) / 100.0,
                 )),
             }))
+        }
+        MavMessage::GPS_RAW_INT(g) => {
+            let fixed = (g.fix_type as u8) >= (dialect::GpsFixType::GPS_FIX_TYPE_2D_FIX as u8);
+            (fixed && g.h_acc > 0).then(|| Incoming::GnssAccuracy {
+                h_acc_m: f64::from(g.h_acc) / 1000.0,
+            })
         }
         MavMessage::ATTITUDE(a) => Some(Incoming::Attitude(AttitudeSample {
             time: AutopilotTimeUs::from_boot_ms(a.time_boot_ms),
@@ -327,6 +339,37 @@ mod tests {
         assert_eq!(p.velocity_ned_mps, Some(Vector3::zeros()));
         let no_fix = MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA::default());
         assert_eq!(decode(&no_fix, 1, 1, 191), None);
+    }
+
+    /// GPS_RAW_INT gives the receiver's horizontal accuracy (mm -> m) when it has a fix and
+    /// filled the field; 0 (a sender without the MAVLink 2 extension) is not reported.
+    #[test]
+    fn gps_raw_int_horizontal_accuracy() {
+        let mk = |fix_type, h_acc| {
+            MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                fix_type,
+                h_acc,
+                lat: 476_721_000,
+                lon: 92_679_000,
+                ..Default::default()
+            })
+        };
+        assert_eq!(
+            decode(&mk(GpsFixType::GPS_FIX_TYPE_3D_FIX, 1500), 1, 1, 191),
+            Some(Incoming::GnssAccuracy { h_acc_m: 1.5 })
+        );
+        assert_eq!(
+            decode(&mk(GpsFixType::GPS_FIX_TYPE_RTK_FIXED, 12), 1, 1, 191),
+            Some(Incoming::GnssAccuracy { h_acc_m: 0.012 })
+        );
+        assert_eq!(
+            decode(&mk(GpsFixType::GPS_FIX_TYPE_3D_FIX, 0), 1, 1, 191),
+            None
+        );
+        assert_eq!(
+            decode(&mk(GpsFixType::GPS_FIX_TYPE_NO_FIX, 1500), 1, 1, 191),
+            None
+        );
     }
 
     #[test]

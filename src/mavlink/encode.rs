@@ -15,14 +15,16 @@ use std::num::NonZeroU16;
 /// rates (Hz); `None`: the pose streams, at `mavlink.stream_rate_hz` (50 Hz by default: fast
 /// enough that interpolating between samples at a frame's time is accurate; a drone at 15 m/s
 /// moves 30 cm in 20 ms). Home rarely changes; SYSTEM_TIME's `time_boot_ms` shows a reboot
-/// even while the other streams are still off, once a second is enough for that.
-pub const STREAMS: [(u32, Option<f32>); 6] = [
+/// even while the other streams are still off, once a second is enough for that. GPS_RAW_INT
+/// carries the receiver's horizontal accuracy (`h_acc`), which changes slowly: 2 Hz.
+pub const STREAMS: [(u32, Option<f32>); 7] = [
     (GLOBAL_POSITION_INT_DATA::ID, None),
     (ATTITUDE_DATA::ID, None),
     (GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID, None),
     (MOUNT_ORIENTATION_DATA::ID, None),
     (HOME_POSITION_DATA::ID, Some(0.2)),
     (SYSTEM_TIME_DATA::ID, Some(1.0)),
+    (GPS_RAW_INT_DATA::ID, Some(2.0)),
 ];
 
 /// STATUSTEXT severities mgmot uses.

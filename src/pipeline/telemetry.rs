@@ -3,7 +3,7 @@
 //! it: where was the camera when this frame was exposed?
 
 use crate::camera::CaptureTime;
-use crate::config::{GimbalReport, TelemetrySettings};
+use crate::config::{GimbalReport, TelemetrySettings, GNSS_ACCURACY_MAX_AGE_MS};
 use crate::geo::attitude::GimbalYawFrame;
 use crate::geo::{FrameMetadata, Geodetic};
 use crate::mavlink::TelemetryUpdate;
@@ -37,6 +37,10 @@ pub(super) struct TelemetryState {
     camera_latency_us: u64,
     /// `telemetry.gimbal_report`: what the gimbal's reports mean.
     gimbal_report: GimbalReport,
+    /// `telemetry.gnss_accuracy`: the receiver's horizontal accuracy is the position noise.
+    use_gnss_accuracy: bool,
+    /// The latest GNSS horizontal accuracy (m) and when it arrived.
+    gnss_accuracy: Option<(CompanionTimeUs, f64)>,
 }
 
 /// What telemetry refused or saw, for the run's counters.
@@ -86,6 +90,8 @@ impl TelemetryState {
             water_level_amsl_m: t.water_level_amsl_m,
             camera_latency_us: micros(t.camera_latency),
             gimbal_report: t.gimbal_report,
+            use_gnss_accuracy: t.gnss_accuracy,
+            gnss_accuracy: None,
         }
     }
 
@@ -131,6 +137,12 @@ impl TelemetryState {
                 }
             }
             TelemetryUpdate::Home(h) => self.home = Some(h),
+            TelemetryUpdate::GnssAccuracy { h_acc_m, at } => {
+                // A receiver's estimate; beyond 10 km it says nothing a fix could be used for.
+                if h_acc_m.is_finite() && h_acc_m > 0.0 && h_acc_m <= 10_000.0 {
+                    self.gnss_accuracy = Some((at, h_acc_m));
+                }
+            }
             TelemetryUpdate::TimeSync {
                 sent,
                 autopilot,
@@ -190,6 +202,15 @@ impl TelemetryState {
         g
     }
 
+    /// The receiver's horizontal accuracy for a frame captured at `captured` (companion
+    /// clock): the latest report, when `telemetry.gnss_accuracy` is on and it arrived within
+    /// [`GNSS_ACCURACY_MAX_AGE_MS`] of the capture.
+    fn gnss_accuracy_at(&self, captured: Option<CompanionTimeUs>) -> Option<f64> {
+        let (at, h_acc_m) = self.gnss_accuracy.filter(|_| self.use_gnss_accuracy)?;
+        let age_us = captured?.0.abs_diff(at.0);
+        (age_us <= GNSS_ACCURACY_MAX_AGE_MS * 1000).then_some(h_acc_m)
+    }
+
     /// When the latest position fix arrived.
     pub fn last_position_at(&self) -> Option<CompanionTimeUs> {
         self.last_position_at
@@ -216,6 +237,7 @@ impl TelemetryState {
                 position: p.position,
                 height_above_sea_m: p.position.alt_m - water,
                 camera_attitude: p.camera_attitude,
+                horizontal_accuracy_m: self.gnss_accuracy_at(captured_at),
             }),
         };
         FramePose {
@@ -229,4 +251,49 @@ impl TelemetryState {
 
 fn micros(d: std::time::Duration) -> u64 {
     u64::try_from(d.as_micros()).unwrap_or(u64::MAX)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Problems, TelemetryConfig};
+
+    fn state(gnss_accuracy: bool) -> TelemetryState {
+        let config = TelemetryConfig {
+            gnss_accuracy,
+            ..TelemetryConfig::default()
+        };
+        let settings = config.validate(&mut Problems::default()).unwrap();
+        TelemetryState::new(&settings)
+    }
+
+    /// The latest plausible `h_acc` describes frames captured within
+    /// [`GNSS_ACCURACY_MAX_AGE_MS`] of its arrival, and none with `telemetry.gnss_accuracy`
+    /// off; values a receiver cannot mean are not taken.
+    #[test]
+    fn the_receivers_accuracy_describes_frames_near_its_arrival() {
+        let at = CompanionTimeUs(100_000_000);
+        let within = CompanionTimeUs(at.0 + GNSS_ACCURACY_MAX_AGE_MS * 1000);
+        let beyond = CompanionTimeUs(within.0 + 1);
+        let mut s = state(true);
+        assert_eq!(s.gnss_accuracy_at(Some(at)), None);
+        s.apply(TelemetryUpdate::GnssAccuracy { h_acc_m: 1.5, at });
+        assert_eq!(s.gnss_accuracy_at(Some(within)), Some(1.5));
+        assert_eq!(
+            s.gnss_accuracy_at(Some(CompanionTimeUs(at.0 - 1000))),
+            Some(1.5)
+        );
+        assert_eq!(s.gnss_accuracy_at(Some(beyond)), None);
+        assert_eq!(s.gnss_accuracy_at(None), None);
+        for nonsense in [0.0, -1.0, f64::NAN, f64::INFINITY, 20_000.0] {
+            s.apply(TelemetryUpdate::GnssAccuracy {
+                h_acc_m: nonsense,
+                at,
+            });
+            assert_eq!(s.gnss_accuracy_at(Some(at)), Some(1.5), "{nonsense}");
+        }
+        let mut off = state(false);
+        off.apply(TelemetryUpdate::GnssAccuracy { h_acc_m: 1.5, at });
+        assert_eq!(off.gnss_accuracy_at(Some(at)), None);
+    }
 }

@@ -147,6 +147,10 @@ pub struct PoseRecord {
     pub height_above_sea_m: f64,
     /// Camera attitude, optical frame -> local NED, as a quaternion (w, x, y, z).
     pub attitude_wxyz: [f64; 4],
+    /// The GNSS receiver's horizontal accuracy at the frame (m, one sigma), when the autopilot
+    /// reported it (GPS_RAW_INT `h_acc`); absent in flights recorded before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizontal_accuracy_m: Option<f64>,
 }
 
 impl PoseRecord {
@@ -159,6 +163,7 @@ impl PoseRecord {
             alt_m: meta.position.alt_m,
             height_above_sea_m: meta.height_above_sea_m,
             attitude_wxyz: [q.w, q.i, q.j, q.k],
+            horizontal_accuracy_m: meta.horizontal_accuracy_m,
         }
     }
 
@@ -169,6 +174,7 @@ impl PoseRecord {
             position: Geodetic::new(self.lat_deg, self.lon_deg, self.alt_m)?,
             height_above_sea_m: self.height_above_sea_m,
             camera_attitude: UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z)),
+            horizontal_accuracy_m: self.horizontal_accuracy_m,
         })
     }
 }
@@ -258,6 +264,16 @@ mod tests {
                 .unwrap(),
             height_above_sea_m: 29.987_654_321,
             camera_attitude: camera_from_heading_pitch_deg(123.456_789, 61.234_567, 0.1),
+            horizontal_accuracy_m: None,
+        };
+        let line = serde_json::to_string(&PoseRecord::of(&meta)).unwrap();
+        // A flight recorded before the accuracy was kept reads back as "not reported".
+        assert!(!line.contains("horizontal_accuracy_m"), "{line}");
+        let back: PoseRecord = serde_json::from_str(&line).unwrap();
+        assert_eq!(back.to_meta().unwrap(), meta);
+        let meta = FrameMetadata {
+            horizontal_accuracy_m: Some(0.734_567_891_234),
+            ..meta
         };
         let line = serde_json::to_string(&PoseRecord::of(&meta)).unwrap();
         let back: PoseRecord = serde_json::from_str(&line).unwrap();

@@ -110,6 +110,7 @@ fn a_nadir_footprint_is_the_field_of_view_on_the_water() {
         alt_m: 130.0,
         height_above_sea_m: 30.0,
         attitude_wxyz: [q.w, q.i, q.j, q.k],
+        horizontal_accuracy_m: None,
     });
     let origin = Geodetic::new(47.0, 9.0, 100.0).unwrap();
     let fp = footprint(&f, origin, 70.0);

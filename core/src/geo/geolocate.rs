@@ -24,6 +24,10 @@ pub struct FrameMetadata {
     pub height_above_sea_m: f64,
     /// Camera attitude: optical frame -> local NED.
     pub camera_attitude: UnitQuaternion<f64>,
+    /// The GNSS receiver's own estimate of its horizontal position error at this frame (m,
+    /// one sigma per axis; MAVLink GPS_RAW_INT `h_acc`). When known it replaces
+    /// [`PoseNoise::horizontal_position_std_m`] in the frame's geolocation covariance.
+    pub horizontal_accuracy_m: Option<f64>,
 }
 
 impl FrameMetadata {
@@ -48,11 +52,13 @@ impl FrameMetadata {
                 gimbal_pitch_deg,
                 0.0,
             ),
+            horizontal_accuracy_m: None,
         })
     }
 
     /// Interpolates between two metadata samples: position and height linearly, attitude by
-    /// slerp; `s` = 0 gives `self`, 1 gives `other`.
+    /// slerp, the horizontal accuracy the worse of the two known; `s` = 0 gives `self`, 1
+    /// gives `other`.
     pub fn interpolate(&self, other: &FrameMetadata, s: f64) -> FrameMetadata {
         let lerp = |a: f64, b: f64| a + (b - a) * s;
         FrameMetadata {
@@ -70,6 +76,10 @@ impl FrameMetadata {
                 } else {
                     other.camera_attitude
                 }),
+            horizontal_accuracy_m: match (self.horizontal_accuracy_m, other.horizontal_accuracy_m) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            },
         }
     }
 
@@ -177,7 +187,14 @@ impl FrameGeometry<'_> {
                 max_range_m: g.max_range_m,
             });
         }
-        let cov_ne_m2 = geolocation_covariance(&g.camera, &self.pose_local, &sea, px, &g.noise)?;
+        let noise = PoseNoise {
+            horizontal_position_std_m: self
+                .meta
+                .horizontal_accuracy_m
+                .unwrap_or(g.noise.horizontal_position_std_m),
+            ..g.noise
+        };
+        let cov_ne_m2 = geolocation_covariance(&g.camera, &self.pose_local, &sea, px, &noise)?;
         let geodetic = self.local.to_geodetic(&local);
         Ok(Geolocation {
             ned_m: g.reference.to_ned(&geodetic),
@@ -307,6 +324,50 @@ mod tests {
             "sea stays near down = 0: {}",
             loc.ned_m
         );
+    }
+
+    /// The receiver's reported horizontal accuracy replaces the configured position noise in
+    /// the covariance, on both axes, and nothing else; the same point is found either way.
+    #[test]
+    fn a_reported_horizontal_accuracy_is_the_position_noise() {
+        let cam = CameraModel::from_hfov(1280, 720, 70.0).unwrap();
+        let origin = Geodetic::new(47.67, 9.27, 0.0).unwrap();
+        let noise = PoseNoise::default();
+        let g = Geolocator::new(origin, cam, noise);
+        let meta = FrameMetadata::from_seadronessee(47.672, 9.268, 40.0, 120.0, 60.0).unwrap();
+        let px = Pixel::new(700.0, 400.0);
+        let configured = g.frame(&meta).unwrap().locate(px).unwrap();
+        let reported = |h_acc_m: f64| {
+            let meta = FrameMetadata {
+                horizontal_accuracy_m: Some(h_acc_m),
+                ..meta
+            };
+            g.frame(&meta).unwrap().locate(px).unwrap()
+        };
+        let same = reported(noise.horizontal_position_std_m);
+        assert_eq!(same.cov_ne_m2, configured.cov_ne_m2);
+        let worse = reported(3.0);
+        assert_eq!(worse.ned_m, configured.ned_m);
+        let added = worse.cov_ne_m2 - configured.cov_ne_m2;
+        let expected = 3.0f64.powi(2) - noise.horizontal_position_std_m.powi(2);
+        assert!(
+            (added - Matrix2::identity() * expected).abs().max() < 1e-9,
+            "{added}"
+        );
+        let rtk = reported(0.02);
+        assert!(rtk.h_std_m() < configured.h_std_m());
+        // Interpolating keeps the worse of two known accuracies, or the one known.
+        let a = FrameMetadata {
+            horizontal_accuracy_m: Some(0.5),
+            ..meta
+        };
+        let b = FrameMetadata {
+            horizontal_accuracy_m: Some(2.0),
+            ..meta
+        };
+        assert_eq!(a.interpolate(&b, 0.3).horizontal_accuracy_m, Some(2.0));
+        assert_eq!(meta.interpolate(&a, 0.3).horizontal_accuracy_m, Some(0.5));
+        assert_eq!(meta.interpolate(&meta, 0.3).horizontal_accuracy_m, None);
     }
 
     #[test]

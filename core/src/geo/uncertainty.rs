@@ -16,7 +16,8 @@ pub struct PoseNoise {
     pub altitude_std_m: f64,
     /// Pixel noise of the box's reference point (px): detector box jitter.
     pub pixel_std_px: f64,
-    /// Horizontal GNSS noise of the drone's position (m), added to each axis.
+    /// Horizontal GNSS noise of the drone's position (m), added to each axis; a frame whose
+    /// [`super::FrameMetadata::horizontal_accuracy_m`] is known uses that instead.
     pub horizontal_position_std_m: f64,
 }
 

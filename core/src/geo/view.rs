@@ -64,6 +64,7 @@ impl CameraView {
             position: self.camera,
             height_above_sea_m: self.height_above_sea_m,
             camera_attitude: self.attitude_frd * optical_to_frd(),
+            horizontal_accuracy_m: None,
         };
         Ok(geolocator
             .frame(&meta)?
@@ -83,6 +84,7 @@ mod tests {
             position: Geodetic::new(54.18, 7.89, height_m).unwrap(),
             height_above_sea_m: height_m,
             camera_attitude: camera_from_heading_pitch_deg(heading_deg, pitch_below_deg, 0.0),
+            horizontal_accuracy_m: None,
         };
         CameraView::of_frame(
             &meta,

@@ -40,6 +40,7 @@ fn origin(m: &MavMessage) -> Origin {
     match m {
         MavMessage::GLOBAL_POSITION_INT(_)
         | MavMessage::ATTITUDE(_)
+        | MavMessage::GPS_RAW_INT(_)
         | MavMessage::HOME_POSITION(_) => Origin::Autopilot,
         MavMessage::TIMESYNC(_) => Origin::AutopilotClock,
         MavMessage::HEARTBEAT(_) | MavMessage::SYSTEM_TIME(_) | MavMessage::COMMAND_ACK(_) => {

@@ -11,7 +11,7 @@
 //!   from the vehicle's system (signed and verified, when signing is on). Another peer takes
 //!   over only after the current one has been silent for [`PEER_TIMEOUT`]. `udpout` accepts
 //!   datagrams from its remote only.
-//! - **pose, home and clock** (GLOBAL_POSITION_INT, ATTITUDE, HOME_POSITION, TIMESYNC,
+//! - **pose, home and clock** (GLOBAL_POSITION_INT, ATTITUDE, GPS_RAW_INT, HOME_POSITION, TIMESYNC,
 //!   HEARTBEAT): only from the configured autopilot (the vehicle's system id and the
 //!   autopilot's component id); gimbal attitude from any component of the vehicle's system.
 //!   Anyone else's are dropped, counted and logged at a limited rate.
