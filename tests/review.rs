@@ -245,6 +245,7 @@ fn write_flight(dir: &Path, frames: u64, end: bool) -> PathBuf {
             sha256: "00".repeat(32),
             bytes: 1,
         },
+        tile_detector: None,
         config_file: "config.toml".to_owned(),
     };
     std::fs::write(

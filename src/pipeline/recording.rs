@@ -43,6 +43,7 @@ pub(super) fn start(
         system_id: settings.mavlink.system_id,
         component_id: settings.mavlink.component_id,
         detector: detector_identity(&settings.detector),
+        tile_detector: tile_detector_identity(&settings.detector),
         config_file: flight::CONFIG.to_owned(),
     };
     let announce_to = outputs.clone();
@@ -86,6 +87,20 @@ fn detector_identity(d: &DetectorSettings) -> DetectorIdentity {
         DetectorSettings::Onnx(o) => ("onnx", &o.detector.model_path),
         DetectorSettings::Replay { detections, .. } => ("replay", detections),
     };
+    file_identity(kind, path)
+}
+
+/// The tile model's file name and SHA-256, when tiling is on with one.
+fn tile_detector_identity(d: &DetectorSettings) -> Option<DetectorIdentity> {
+    let DetectorSettings::Onnx(o) = d else {
+        return None;
+    };
+    let path = o.detector.tile_model.as_ref()?;
+    o.detector.tiling.map(|_| file_identity("onnx", path))
+}
+
+/// A detector file's identity: `kind`, its name, SHA-256 and size.
+fn file_identity(kind: &str, path: &Path) -> DetectorIdentity {
     let (sha256, bytes) = flight::sha256_of(path).unwrap_or_else(|e| {
         tracing::warn!(path = %path.display(), error = %e, "detector file not hashed");
         (String::new(), 0)
@@ -199,5 +214,39 @@ impl FrameRecording {
             keyframe: None,
         };
         self.sink.frame(record, keyframe);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OnnxSettings;
+    use crate::detect::{DetectorConfig, TilingConfig};
+
+    fn repo(file: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(file)
+    }
+
+    /// `flight.json` names the tile model beside the model, by hash, only when tiling is on
+    /// with one.
+    #[test]
+    fn the_flight_names_its_tile_model() {
+        let mut d = DetectorConfig::new(repo("models/mgmot-det-int8.onnx"));
+        d.tile_model = Some(repo("models/mgmot-det-tiles-int8.onnx"));
+        let without_tiling = DetectorSettings::Onnx(OnnxSettings::fixed(d.clone()));
+        assert_eq!(tile_detector_identity(&without_tiling), None);
+        d.tiling = Some(TilingConfig::default());
+        let tiled = DetectorSettings::Onnx(OnnxSettings::fixed(d.clone()));
+        let tiles = tile_detector_identity(&tiled).unwrap();
+        let main = detector_identity(&tiled);
+        assert_eq!(
+            (tiles.kind.as_str(), tiles.file.as_str()),
+            ("onnx", "mgmot-det-tiles-int8.onnx")
+        );
+        assert_eq!(tiles.sha256.len(), 64);
+        assert_ne!(tiles.sha256, main.sha256);
+        d.tile_model = None;
+        let no_tile_model = DetectorSettings::Onnx(OnnxSettings::fixed(d));
+        assert_eq!(tile_detector_identity(&no_tile_model), None);
     }
 }

@@ -292,6 +292,7 @@ mod tests {
                 sha256: String::new(),
                 bytes: 0,
             },
+            tile_detector: None,
             config_file: CONFIG.into(),
         }
     }

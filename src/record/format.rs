@@ -38,6 +38,10 @@ pub struct FlightInfo {
     pub component_id: u8,
     /// What produced the detections.
     pub detector: DetectorIdentity,
+    /// The `[detector] tile_model` configured beside it: it ran the frames that were tiled
+    /// (the log says whether any were: `detector: tiling ...`). Absent without one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile_detector: Option<DetectorIdentity>,
     /// The effective configuration beside it (`config.toml`).
     pub config_file: String,
 }

@@ -625,6 +625,7 @@ mod tests {
                 sha256: String::new(),
                 bytes: 0,
             },
+            tile_detector: None,
             config_file: "config.toml".into(),
         }
     }

@@ -417,7 +417,13 @@ impl Review {
             started_utc: flight.info.started_utc.clone(),
             system_id: flight.info.system_id,
             mgmot_version: flight.info.mgmot_version.clone(),
-            detector: format!("{} {} (sha256 {})", d.kind, d.file, d.sha256),
+            detector: match &flight.info.tile_detector {
+                None => format!("{} {} (sha256 {})", d.kind, d.file, d.sha256),
+                Some(t) => format!(
+                    "{} {} (sha256 {}); tiled frames: {} (sha256 {})",
+                    d.kind, d.file, d.sha256, t.file, t.sha256
+                ),
+            },
             clean_end: flight.end.is_some(),
             frames: frames.len(),
             bad_lines: flight.bad_lines.len(),

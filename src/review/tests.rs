@@ -223,6 +223,7 @@ fn the_embedded_data_cannot_close_its_script_element() {
                 sha256: String::new(),
                 bytes: 0,
             },
+            tile_detector: None,
             config_file: "config.toml".into(),
         },
         config_toml: String::new(),
