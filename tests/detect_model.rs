@@ -242,13 +242,8 @@ fn a_tile_model_runs_the_tiled_frames_and_only_those() {
 /// files; a missing one names its file.
 #[test]
 fn a_tile_model_must_have_the_main_models_classes() {
-    let dir = tempfile::tempdir().unwrap();
-    // The tile model with its `swimmer` renamed (same length: the protobuf stays valid).
-    let mut bytes = std::fs::read(root().join(TILES)).unwrap();
-    let at = bytes.windows(9).position(|w| w == b"'swimmer'").unwrap();
-    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
-    let renamed = dir.path().join("renamed-tiles.onnx");
-    std::fs::write(&renamed, bytes).unwrap();
+    let dir = crate::common::TestDir::new();
+    let renamed = crate::common::model_with_swimmer_renamed(&dir, TILES, "renamed-tiles.onnx");
     let with_tiles = |tile_model: PathBuf| {
         let mut cfg = DetectorConfig::new(root().join(INT8));
         cfg.tiling = Some(TilingConfig::default());
@@ -264,7 +259,7 @@ fn a_tile_model_must_have_the_main_models_classes() {
             && msg.contains("swimmex"),
         "{msg}"
     );
-    let e = with_tiles(dir.path().join("gone.onnx"));
+    let e = with_tiles(dir.join("gone.onnx"));
     assert!(matches!(e, DetectError::ModelRead { .. }), "{e:?}");
     assert!(e.to_string().contains("gone.onnx"), "{e}");
 }

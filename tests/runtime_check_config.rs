@@ -170,25 +170,13 @@ fn flight_day_12_run_says_its_start_up_error_once() {
 const INT8: &str = "models/mgmot-det-int8.onnx";
 const FP32: &str = "models/mgmot-det-fp32.onnx";
 
-/// A copy of the fp32 model in `dir` whose class `swimmer` is called `swimmex` (same length:
-/// the protobuf stays valid), whatever the other classes.
-fn renamed_class_model(dir: &TestDir) -> std::path::PathBuf {
-    let mut bytes = std::fs::read(repo_file(FP32)).unwrap();
-    let at = bytes
-        .windows(9)
-        .position(|w| w == b"'swimmer'")
-        .expect("the fp32 model names a swimmer class");
-    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
-    dir.write("renamed.onnx", bytes)
-}
-
 /// `[detector] alternatives`: each must be a readable model with the main model's class names
 /// and input size; `check-config` names the file under the key.
 #[test]
 fn check_config_refuses_a_missing_or_mismatched_alternative() {
     let dir = TestDir::new();
     let missing = dir.join("models/gone.onnx");
-    let renamed = renamed_class_model(&dir);
+    let renamed = common::model_with_swimmer_renamed(&dir, FP32, "renamed.onnx");
     let config = example_config_with_detector(&dir, &repo_file(INT8), "auto", None);
     let with = |alternatives: &[&Path]| {
         let list: Vec<String> = alternatives

@@ -168,6 +168,17 @@ enum Runner {
 /// tract's runnable plan.
 type TractPlan = std::sync::Arc<tract_onnx::prelude::TypedSimplePlan>;
 
+/// A loaded model's interface, as [`super::auto::ModelInterface`] reads it from a file (class
+/// names as they took effect, `class_names` override included).
+fn interface_of(info: &ModelInfo) -> super::auto::ModelInterface {
+    super::auto::ModelInterface {
+        input_name: info.input_name.clone(),
+        output_name: info.output_name.clone(),
+        input_size_px: Some((info.input_width_px, info.input_height_px)),
+        class_names: Some(info.class_names.clone()),
+    }
+}
+
 impl std::fmt::Debug for Runner {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -323,33 +334,16 @@ impl Detector {
             ..self.config.clone()
         };
         let inner = Detector::load(config)?;
-        let (main, tiles) = (&self.info, &inner.info);
-        let mismatch = if (main.input_width_px, main.input_height_px)
-            != (tiles.input_width_px, tiles.input_height_px)
-        {
-            Some(format!(
-                "its input is {}x{}, the model's {}x{}",
-                tiles.input_width_px,
-                tiles.input_height_px,
-                main.input_width_px,
-                main.input_height_px
-            ))
-        } else if main.category_ids != tiles.category_ids {
-            Some(format!(
-                "its classes are {:?}, the model's {:?}",
-                tiles.class_names, main.class_names
-            ))
-        } else {
-            None
-        };
-        if let Some(why) = mismatch {
+        // The check `mgmot check-config` makes of the files, on the models as loaded.
+        let (main, tiles) = (interface_of(&self.info), interface_of(&inner.info));
+        if let Some(why) = tiles.mismatch(&main) {
             return Err(DetectError::InvalidConfig(format!(
                 "tile model {} cannot run the tiles of {}: {why}",
                 tile_model.display(),
-                main.path.display()
+                self.info.path.display()
             )));
         }
-        tracing::info!(model = %main.path.display(), tile_model = %tile_model.display(), "detector: tiled frames run the tile model");
+        tracing::info!(model = %self.info.path.display(), tile_model = %tile_model.display(), "detector: tiled frames run the tile model");
         Ok(Some(inner))
     }
 

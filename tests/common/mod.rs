@@ -101,6 +101,18 @@ pub fn repo_file(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
 
+/// A copy of the repository's `model` in `dir`, as `name`, whose class `swimmer` is called
+/// `swimmex` (same length: the protobuf stays valid), whatever the other classes.
+pub fn model_with_swimmer_renamed(dir: &TestDir, model: &str, name: &str) -> PathBuf {
+    let mut bytes = std::fs::read(repo_file(model)).unwrap();
+    let at = bytes
+        .windows(9)
+        .position(|w| w == b"'swimmer'")
+        .expect("the model names a swimmer class");
+    bytes[at..at + 9].copy_from_slice(b"'swimmex'");
+    dir.write(name, bytes)
+}
+
 /// The shipped example configuration, made true on this machine: the repository's model on
 /// the tract backend instead of the installed model and ONNX Runtime library (which
 /// `check-config` requires to exist). Written into `dir`.
