@@ -449,7 +449,12 @@ impl Fuser {
     ///   track's gate while another live, unheld track of the fused track sees its object
     ///   now, or another fused track of its class that could take it fits it better (the
     ///   drone's long-term ReID took it for the wrong object: seen when a drone came back on a
-    ///   group of swimmers and shifted its ids by one).
+    ///   group of swimmers and shifted its ids by one). "Fits better" counts only where
+    ///   another drone saw one of the two fused tracks: where this drone alone saw both, the
+    ///   ground knows nothing of them that the drone's own ReID did not weigh (positions
+    ///   only, against its appearance and motion), and the drone's word stands (seen on the
+    ///   ArduPilot SITL bench: a swimmer that drifted 7 m in 50 s came back nearer its
+    ///   neighbour's lost fused track, and two swimmers changed fused ids).
     /// - **Inside** the gate of its fused track, and of no other fused track of its class: the
     ///   same object.
     /// - Otherwise **unconfirmed**: far from its fused track with nothing there to say
@@ -491,7 +496,10 @@ impl Fuser {
             let Some(d2) = self.gated(me, (q.pos, q.cov)) else {
                 continue;
             };
-            if self.compatible(&single, &g.members, true) && own.is_none_or(|o| d2 < o) {
+            if self.compatible(&single, &g.members, true)
+                && own.is_none_or(|o| d2 < o)
+                && (Self::seen_by_another(f, key.0) || Self::seen_by_another(g, key.0))
+            {
                 return Reacquired::Wrong;
             }
             ambiguous = true;
@@ -501,6 +509,11 @@ impl Fuser {
         } else {
             Reacquired::Unconfirmed
         }
+    }
+
+    /// Whether a drone other than `system_id` ever saw fused track `f`.
+    fn seen_by_another(f: &Fused, system_id: u8) -> bool {
+        f.seen_by.iter().any(|s| *s != system_id)
     }
 
     /// Drone track `key` leaves fused track `fid` at `now_s` and is associated anew, as a
@@ -1397,6 +1410,51 @@ mod tests {
         f.step(51.0);
         assert_eq!(f.fused_id_of(1, 9), Some(id));
         assert_eq!(f.ids_given(), 1);
+    }
+
+    /// Seen on the ArduPilot SITL bench (one drone): swimmers A and B 12 m apart, both lost
+    /// for 45 s; the drone's ReID brought A's track back where A had drifted, nearer B's lost
+    /// fused track than A's. Only this drone ever saw either, so the ground has nothing to
+    /// weigh against the drone's ReID: both keep their fused ids, and none is given anew.
+    #[test]
+    fn one_drones_reid_is_not_overruled_by_nearness_alone() {
+        let mut f = Fuser::new(FuseParams::default());
+        for k in 0..6 {
+            let t = f64::from(k);
+            f.observe(&report(1, 3, 1, t, 0.0, 0.0, 1.0));
+            f.observe(&report(1, 4, 1, t, 12.0, 0.0, 1.0));
+            f.step(t);
+        }
+        let (a, b) = (f.fused_id_of(1, 3), f.fused_id_of(1, 4));
+        assert!(a.is_some() && b.is_some() && a != b);
+        for k in 6..51 {
+            f.step(f64::from(k));
+        }
+        // A's track comes back 7.6 m from A's last place and 7.2 m from B's; B's a second
+        // later, where B was.
+        for k in 51..66 {
+            let t = f64::from(k);
+            f.observe(&report(1, 3, 1, t, 6.5, 4.0, 1.0));
+            if k > 51 {
+                f.observe(&report(1, 4, 1, t, 12.3, 0.2, 1.0));
+            }
+            f.step(t);
+            assert_eq!(f.fused_id_of(1, 3), a, "at {t} s");
+            if k > 51 {
+                assert_eq!(f.fused_id_of(1, 4), b, "at {t} s");
+            }
+        }
+        assert_eq!(f.ids_given(), 2);
+        assert!(f.take_retired().is_empty());
+        // Followed once the hold is over: A's fused track is where A's track is.
+        let p = f.picture(65.0);
+        let pa = p
+            .iter()
+            .find(|x| Some(x.id) == a)
+            .map(|x| (x.lat_deg, x.state));
+        let (lat, state) = pa.unwrap_or((f64::NAN, FusedTrackState::Lost));
+        assert!(((lat - LAT0) * M_PER_DEG_LAT - 6.5).abs() < 1.0, "{lat}");
+        assert_eq!(state, FusedTrackState::Tracked);
     }
 
     /// Seen in CI on `two_drones_abreast` seed 31: drone 2's track came back 55 s later where
