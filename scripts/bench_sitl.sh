@@ -16,6 +16,7 @@
 # Usage: scripts/bench_sitl.sh ARDUPILOT_DIR [--out DIR] [--router PATH_TO_mavlink-routerd]
 #                              [--bin-dir DIR] [--python PY]
 #                              [--reboot-at S [--reboot-landed | --reboot-dry-run]]
+#                              [--instance N] [--altitude-m M] [--east-m M] [--ground-forward PORT]
 #
 # --bin-dir DIR: use DIR/mgmot and DIR/mgmot-sim as they are (no setup.sh, no cargo build;
 # default: build them with cargo into target/release). --python PY: the Python with pymavlink
@@ -25,6 +26,11 @@
 # disarm first), waits for it to come back and flies the pattern again; mgmot, follow and the
 # router keep running. The report then compares the tracks before and after the reboot.
 # --reboot-dry-run: the same flight without the reboot (lands and disarms at S, flies again).
+# --instance N: SITL instance N (-IN) with MAVLink system id N+1; every port above moves up by
+# 10*N (SITL's own rule for its TCP ports), so several benches can fly at once, as
+# scripts/bench_sitl_fleet.sh does. --altitude-m / --east-m: the search altitude (30 m) and
+# the pattern's offset east of home (0 m). --ground-forward PORT: the router also forwards
+# everything to udp PORT (a fleet's shared mgmot ground).
 #
 # ARDUPILOT_DIR holds a built ArduCopter SITL (build/sitl/bin/arducopter; see
 # docs/sitl-bench.md). The vehicle gets firmware-config/ardupilot/
@@ -43,6 +49,8 @@ router="${MAVLINK_ROUTERD:-}"
 bin_dir=""
 python=""
 fly_args=()
+instance=0
+ground_forward=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
@@ -52,7 +60,11 @@ while [ $# -gt 0 ]; do
     --reboot-at) fly_args+=(--reboot-at "$2"); shift 2 ;;
     --reboot-landed) fly_args+=(--reboot-landed); shift ;;
     --reboot-dry-run) fly_args+=(--reboot-dry-run); shift ;;
-    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
+    --instance) instance="$2"; shift 2 ;;
+    --altitude-m) fly_args+=(--altitude-m "$2"); shift 2 ;;
+    --east-m) fly_args+=(--east-m "$2"); shift 2 ;;
+    --ground-forward) ground_forward="$2"; shift 2 ;;
+    -h|--help) sed -n '2,40p' "$0"; exit 0 ;;
     *) if [ -z "$ap_dir" ]; then ap_dir="$1"; shift; else echo "bench: unexpected argument $1" >&2; exit 2; fi ;;
   esac
 done
@@ -62,6 +74,12 @@ if [ -z "$ap_dir" ] || [ ! -x "$ap_dir/build/sitl/bin/arducopter" ]; then
   exit 2
 fi
 ap_dir=$(cd "$ap_dir" && pwd)
+case "$instance" in
+  [0-9]) ;;
+  *) echo "bench: --instance takes 0 to 9, not '$instance'" >&2; exit 2 ;;
+esac
+sysid=$((instance + 1))
+p=$((10 * instance))
 if [ -z "$router" ]; then router=$(command -v mavlink-routerd || true); fi
 if [ -z "$router" ] || [ ! -x "$router" ]; then
   echo "bench: mavlink-routerd not found: put it on PATH, set MAVLINK_ROUTERD or pass --router" >&2
@@ -71,25 +89,10 @@ out=${out:-$(mktemp -d "${TMPDIR:-/tmp}/mgmot-sitl.XXXXXX")}
 mkdir -p "$out"
 echo "bench: output in $out"
 
-if [ -n "$bin_dir" ]; then
-  bin_dir=$(cd "$bin_dir" && pwd)
-  for b in mgmot mgmot-sim; do
-    if [ ! -x "$bin_dir/$b" ]; then echo "bench: $bin_dir/$b not found" >&2; exit 2; fi
-  done
-else
-  bash scripts/setup.sh >/dev/null
-  cargo build --release -q -p mgmot -p mgmot-sim
-  bin_dir=$repo/target/release
-fi
-if [ -z "$python" ]; then
-  if [ ! -x .venv/bin/python3 ] || ! .venv/bin/python3 -c "import pymavlink" 2>/dev/null; then
-    python3 -m venv .venv && .venv/bin/python3 -m pip install -q -r scripts/requirements-test.txt
-  fi
-  python=.venv/bin/python3
-elif ! "$python" -c "import pymavlink" 2>/dev/null; then
-  echo "bench: $python has no pymavlink" >&2
-  exit 2
-fi
+# shellcheck source=scripts/lib/bench_tools.sh
+source scripts/lib/bench_tools.sh
+bench_binaries
+bench_python
 ort=""
 if ort=$(bash scripts/detect_fetch_onnxruntime.sh 2>/dev/null); then backend=onnxruntime; else backend=tract; fi
 
@@ -99,9 +102,12 @@ trap cleanup EXIT
 
 home="47.6721,9.2679,395,0"
 mkdir -p "$out/sitl"
-(cd "$out/sitl" && exec "$ap_dir/build/sitl/bin/arducopter" --model + --speedup 1 -I0 --home "$home" \
-  --serial1 udpclient:127.0.0.1:14554 \
-  --defaults "$ap_dir/Tools/autotest/default_params/copter.parm,$repo/firmware-config/ardupilot/mgmot-servo-gimbal.parm" \
+# The shipped parameter file sets MAV_SYSID 1 (a single vehicle); a later defaults file wins
+# over it, and over --sysid.
+echo "MAV_SYSID $sysid" > "$out/sitl/sysid.parm"
+(cd "$out/sitl" && exec "$ap_dir/build/sitl/bin/arducopter" --model + --speedup 1 -I"$instance" --home "$home" \
+  --serial1 udpclient:127.0.0.1:$((14554 + p)) \
+  --defaults "$ap_dir/Tools/autotest/default_params/copter.parm,$repo/firmware-config/ardupilot/mgmot-servo-gimbal.parm,$out/sitl/sysid.parm" \
   > "$out/sitl.log" 2>&1) &
 pids+=($!)
 
@@ -111,30 +117,33 @@ TcpServerPort = 0
 ReportStats = false
 [TcpEndpoint autopilot]
 Address = 127.0.0.1
-Port = 5763
+Port = $((5763 + p))
 [UdpEndpoint gcs]
 Mode = Normal
 Address = 127.0.0.1
-Port = 14550
+Port = $((14550 + p))
 [UdpEndpoint mgmot]
 Mode = Normal
 Address = 127.0.0.1
-Port = 14551
+Port = $((14551 + p))
 [UdpEndpoint follow]
 Mode = Normal
 Address = 127.0.0.1
-Port = 14552
+Port = $((14552 + p))
 [UdpEndpoint ground]
 Mode = Normal
 Address = 127.0.0.1
-Port = 14553
+Port = $((14553 + p))
 EOF
+if [ -n "$ground_forward" ]; then
+  printf '[UdpEndpoint fleet_ground]\nMode = Normal\nAddress = 127.0.0.1\nPort = %s\n' "$ground_forward" >> "$out/router.conf"
+fi
 
 # mgmot's config: the bench's link, frames, detector and servo gimbal; defaults elsewhere.
 cat > "$out/mgmot.toml" <<EOF
 [mavlink]
-connection = "udpin:127.0.0.1:14551"
-system_id = 1
+connection = "udpin:127.0.0.1:$((14551 + p))"
+system_id = $sysid
 component_id = 191
 autopilot_component_id = 1
 
@@ -166,7 +175,7 @@ printf '\n[recording]\ndir = "%s/flights"\nkeyframe_every_s = 5.0\n' "$out" >> "
 # where ArduPilot forwards mgmot's STATUSTEXT digest but drops MGMOT_TRACK.
 mkdir -p "$out/ground"
 grounds=()
-for path in router:14553 radio:14554; do
+for path in router:$((14553 + p)) radio:$((14554 + p)); do
   name=${path%%:*}
   "$bin_dir/mgmot" ground --connection "udpin:127.0.0.1:${path#*:}" --http "" \
     --record "$out/ground/$name.jsonl" --geojson "$out/ground/$name.geojson" \
@@ -174,13 +183,13 @@ for path in router:14553 radio:14554; do
   grounds+=($!)
   pids+=($!)
 done
-"$python" scripts/bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out "$out" ${fly_args[@]+"${fly_args[@]}"} &
+"$python" scripts/bench_sitl_fly.py --sitl-port $((5760 + p)) --router-port $((14550 + p)) --system-id "$sysid" --out "$out" ${fly_args[@]+"${fly_args[@]}"} &
 fly=$!
 pids+=($fly)
 sleep 3
 "$router" -c "$out/router.conf" > "$out/router.log" 2>&1 &
 pids+=($!)
-"$bin_dir/mgmot-sim" follow -s calm_baseline --mavlink udpin:127.0.0.1:14552 \
+"$bin_dir/mgmot-sim" follow -s calm_baseline --mavlink udpin:127.0.0.1:$((14552 + p)) \
   --frames "unix:$out/frames.sock" --gimbal-report body --duration-s 600 \
   --truth-out "$out/truth" --track-report "$out/track_report.json" > "$out/follow.log" 2>&1 &
 follow=$!
@@ -196,7 +205,7 @@ wait "$fly" || fly_rc=$?
 if [ "$fly_rc" -ne 0 ]; then echo "bench: the flight script failed (exit $fly_rc); reporting what was recorded" >&2; fi
 kill -INT "$mgmot" "$follow" "${grounds[@]}" 2>/dev/null || true
 wait "$mgmot" "$follow" "${grounds[@]}" 2>/dev/null || true
-"$python" scripts/bench_sitl_report.py "$out"
+"$python" scripts/bench_sitl_report.py "$out" --system-id "$sysid"
 # The flight mgmot recorded (its tlog holds ArduPilot's own packets): replayed, and reviewed
 # against the simulator's truth.
 # Flight folders are named after their UTC start, so the newest one this run made sorts last.

@@ -23,6 +23,7 @@ reboot. The times (UNIX, companion clock) go to the summary's "reboot". --reboot
 control for it: at S it lands and disarms, skips the reboot and flies the pattern again.
 
 Usage: bench_sitl_fly.py --sitl-port 5760 --router-port 14550 --out DIR [--leg-m 200]
+                         [--system-id 1] [--altitude-m 30] [--east-m 0]
                          [--reboot-at S [--reboot-landed | --reboot-dry-run]]
 """
 import argparse
@@ -39,7 +40,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from runtime_mavlink_tap import load_dialect  # noqa: E402
 
 GCS = (255, 190)
-MGMOT = (1, 191)
+# The vehicle's system id (--system-id): the autopilot is (SYSID, 1), mgmot (SYSID, 191).
+SYSID = 1
+MGMOT = (SYSID, 191)
 # ArduPilot reboots while armed only with this in COMMAND_INT.y (GCS_Common.cpp).
 FORCE_REBOOT_MAGIC = 20190226
 
@@ -101,6 +104,8 @@ def main():
     ap.add_argument("--altitude-m", type=float, default=30.0)
     ap.add_argument("--leg-m", type=float, default=200.0, help="length of the search leg north of home")
     ap.add_argument("--speed-mps", type=float, default=5.0)
+    ap.add_argument("--east-m", type=float, default=0.0, help="the pattern's offset east of home")
+    ap.add_argument("--system-id", type=int, default=1, help="the vehicle's MAVLink system id (SITL --sysid)")
     ap.add_argument("--reboot-at", type=float, default=None,
                     help="reboot the autopilot this many seconds after the start, then fly the pattern again")
     ap.add_argument("--reboot-landed", action="store_true",
@@ -108,6 +113,9 @@ def main():
     ap.add_argument("--reboot-dry-run", action="store_true",
                     help="at --reboot-at, land and disarm but do not reboot, then fly the pattern again (the control)")
     args = ap.parse_args()
+    global SYSID, MGMOT
+    SYSID, MGMOT = args.system_id, (args.system_id, 191)
+    autopilot = (SYSID, 1)
     os.makedirs(args.out, exist_ok=True)
     dialect = load_dialect()
 
@@ -169,7 +177,8 @@ def main():
             if router_sock in r:
                 router.feed(router_sock.recv(65536))
 
-    def command(cmd, *params, target=(1, 1)):
+    def command(cmd, *params, target=None):
+        target = target or autopilot
         p = list(params) + [0] * (7 - len(params))
         m.command_long_send(target[0], target[1], cmd, 0, *p)
 
@@ -180,7 +189,7 @@ def main():
         for when, msg in reversed(radio.messages):
             if when < since:
                 break
-            if msg.get_type() == t and (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 1):
+            if msg.get_type() == t and (msg.get_srcSystem(), msg.get_srcComponent()) == autopilot:
                 return msg
         return None
 
@@ -189,7 +198,7 @@ def main():
         lat = home[0] + north_m / 111320.0
         lon = home[1] + east_m / (111320.0 * math.cos(math.radians(home[0])))
         m.set_position_target_global_int_send(
-            0, 1, 1, dialect.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0b0000111111111000,
+            0, SYSID, 1, dialect.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0b0000111111111000,
             int(lat * 1e7), int(lon * 1e7), args.altitude_m, 0, 0, 0, 0, 0, 0, 0, 0)
 
     def gimbal(pitch_deg, yaw_deg):
@@ -206,7 +215,7 @@ def main():
                 command(dialect.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
             pump(0.2)
         # The bench does not calibrate sensors or set up an RC transmitter.
-        m.param_set_send(1, 1, b"ARMING_CHECK", 0, dialect.MAV_PARAM_TYPE_INT32)
+        m.param_set_send(SYSID, 1, b"ARMING_CHECK", 0, dialect.MAV_PARAM_TYPE_INT32)
         pump(1)
         log("waiting for a GPS fix and the EKF")
         while True:
@@ -221,7 +230,7 @@ def main():
         # The pattern stays where flight 1 put it (a dry run lands away from home).
         state.setdefault("home", (pos.lat * 1e-7, pos.lon * 1e-7))
         log("flight %d: GPS fix at %.6f, %.6f; pattern from %.6f, %.6f" % ((flight, pos.lat * 1e-7, pos.lon * 1e-7) + state["home"]))
-        m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4)  # GUIDED
+        m.set_mode_send(SYSID, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4)  # GUIDED
         pump(1)
         # Until the EKF has a position estimate the autopilot refuses ("Arm: Need Position
         # Estimate"): ask again until COMMAND_ACK says ACCEPTED.
@@ -241,7 +250,7 @@ def main():
         gimbal(-60, 0)
         command(dialect.MAV_CMD_DO_CHANGE_SPEED, 1, args.speed_mps, -1)
         log("search leg north, gimbal -60 forward")
-        goto(args.leg_m, 0)
+        goto(args.leg_m, args.east_m)
         leg_s = args.leg_m / args.speed_mps
         # The operator clicks on a track as soon as one shows: its box is taken from the router
         # tap's latest MGMOT_TRACK (as a ground station showing the video would), the command goes
@@ -270,7 +279,7 @@ def main():
             try_select()
             pump(1.0)
         log("back south with gimbal sweeps")
-        goto(0, 0)
+        goto(0, args.east_m)
         back_start = time.time()
         k = 0
         while time.time() - back_start < leg_s + 5:
@@ -290,7 +299,7 @@ def main():
         info["armed"] = bool(hb is not None and hb.base_mode & dialect.MAV_MODE_FLAG_SAFETY_ARMED)
         if (args.reboot_landed or args.reboot_dry_run) and info["armed"]:
             log("reboot: landing and disarming first")
-            m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND
+            m.set_mode_send(SYSID, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND
             deadline = time.time() + 120
             while time.time() < deadline:
                 pump(1)
@@ -308,7 +317,7 @@ def main():
             return
         log("reboot: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN%s (armed %s, %.1f m above home)"
             % (", forced" if info["armed"] else "", info["armed"], info["relative_alt_m"] or 0.0))
-        m.command_int_send(1, 1, 0, dialect.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 0, 1, 0, 0, 0,
+        m.command_int_send(SYSID, 1, 0, dialect.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 0, 1, 0, 0, 0,
                            0, FORCE_REBOOT_MAGIC if info["armed"] else 0, 0)
         deadline = time.time() + 10
         while link["sock"] is not None and time.time() < deadline:
@@ -333,7 +342,7 @@ def main():
                 sys.exit("bench: no HEARTBEAT from the autopilot within 60 s of the reboot")
             pump(0.1)
         info["heartbeat_at"] = next(w for w, x in radio.messages if w >= state["epoch"] and x.get_type() == "HEARTBEAT"
-                                    and (x.get_srcSystem(), x.get_srcComponent()) == (1, 1))
+                                    and (x.get_srcSystem(), x.get_srcComponent()) == autopilot)
         log("reboot: radio reconnected %.2f s, autopilot HEARTBEAT %.2f s after the command"
             % (info["reconnected_at"] - info["requested_at"], info["heartbeat_at"] - info["requested_at"]))
 
@@ -347,7 +356,7 @@ def main():
             flight += 1
     command(dialect.MAV_CMD_CAMERA_STOP_TRACKING, target=MGMOT)
     log("landing")
-    m.set_mode_send(1, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND
+    m.set_mode_send(SYSID, dialect.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 9)  # LAND
     pump(5)
     summary = {
         "events": state["events"],

@@ -18,8 +18,9 @@ renderer's truth and track report and mgmot's stats from the bench's output fold
    alone): what it heard, and its fused picture against the truth (each tracked fused track
    matched to the nearest object within the gate at that moment; fused ids per object).
 
-Usage: bench_sitl_report.py OUT_DIR
+Usage: bench_sitl_report.py OUT_DIR [--system-id N]   (the vehicle's system id, 1 by default)
 """
+import argparse
 import csv
 import json
 import math
@@ -31,6 +32,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from runtime_mavlink_tap import load_dialect  # noqa: E402
 
+# The vehicle's system id (--system-id, as bench_sitl.sh --instance): the autopilot is
+# (SYSID, 1), mgmot (SYSID, 191).
 MGMOT = (1, 191)
 AUTOPILOT = (1, 1)
 
@@ -448,7 +451,13 @@ def ground_section(out, router, report):
 
 
 def main():
-    out = sys.argv[1]
+    global MGMOT, AUTOPILOT
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out")
+    ap.add_argument("--system-id", type=int, default=1)
+    args = ap.parse_args()
+    out = args.out
+    MGMOT, AUTOPILOT = (args.system_id, 191), (args.system_id, 1)
     dialect = load_dialect()
     radio = read_tlog(dialect, os.path.join(out, "gcs_radio.tlog"))
     router = read_tlog(dialect, os.path.join(out, "gcs_router.tlog"))
@@ -460,7 +469,7 @@ def main():
         end = router[-1][0]
         streams = {}
         for t, m in router:
-            if sender(m)[0] == 1 and sender(m) != MGMOT and t >= end - 60:
+            if sender(m)[0] == AUTOPILOT[0] and sender(m) != MGMOT and t >= end - 60:
                 streams.setdefault("%s %d/%d" % ((m.get_type(),) + sender(m)), []).append(t)
         for k in sorted(streams):
             print("   %-45s %6d msgs %7.1f Hz" % (k, len(streams[k]), rate(streams[k])))
