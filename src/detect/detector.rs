@@ -14,7 +14,7 @@ use super::backend::{init_backend, BackendConfig, BackendKind};
 use super::model::{detect_layout, read_metadata, ModelInfo, OutputLayout};
 use super::postprocess::{class_aware_nms, decode, larger_box_priority_suppression};
 use super::preprocess::{Preprocessor, Region};
-use super::tiling::{keep_in_merge, tile_grid, TilingConfig};
+use super::tiling::{keep_in_merge, tile_grid, TileGovernor, TileSwitch, TilingConfig};
 use super::{DetectError, Detection};
 
 /// Detector settings. The defaults suit the shipped model.
@@ -139,9 +139,9 @@ pub struct Detector {
     runner: Runner,
     /// Median model run (µs), measured at load when tiling has a frame budget.
     model_run_us: Option<u64>,
-    /// Whether frames of a size are tiled, decided on the first frame of that size when
-    /// tiling has a frame budget.
-    tiled_sizes: Vec<((u32, u32), bool)>,
+    /// Whether frames of a size are tiled, when tiling has a frame budget: decided on the
+    /// first frame of that size, revised in flight ([`TileGovernor`]).
+    tiled_sizes: Vec<((u32, u32), TileGovernor)>,
     /// The detector of [`DetectorConfig::tile_model`], which runs the tiled frames.
     tile_detector: Option<Box<Detector>>,
 }
@@ -365,16 +365,21 @@ impl Detector {
 
     /// Whether tiling is on for `fw x fh` frames in `regions` model runs: always without a
     /// frame budget; with one (`tile = "auto"`), when the runs fit in it at the model run time
-    /// measured at load, decided once per frame size and logged.
+    /// measured at load, decided on the first frame of each size and logged, then revised
+    /// in flight ([`Detector::revise_tiling`]).
     fn tiles_frames_of(&mut self, fw: u32, fh: u32, regions: usize, t: &TilingConfig) -> bool {
         let (Some(budget_us), Some(run_us)) = (t.frame_budget_us, self.model_run_us) else {
             return true;
         };
-        if let Some((_, on)) = self.tiled_sizes.iter().find(|(s, _)| *s == (fw, fh)) {
-            return *on;
+        if let Some((_, g)) = self.tiled_sizes.iter().find(|(s, _)| *s == (fw, fh)) {
+            return g.tiles();
         }
+        // Without the tile model that is configured (not loaded: ruled out at load), tiling
+        // never starts in flight either.
+        let may_resume = self.config.tile_model.is_none() || self.tile_detector.is_some();
+        let governor = TileGovernor::new(budget_us, regions, run_us, may_resume);
         let need_us = run_us.saturating_mul(regions as u64);
-        let on = need_us <= budget_us;
+        let on = governor.tiles();
         let (ms, need_ms, budget_ms) = (
             run_us as f64 / 1000.0,
             need_us as f64 / 1000.0,
@@ -385,8 +390,30 @@ impl Detector {
         } else {
             tracing::info!(frame_w = fw, frame_h = fh, model_runs = regions, "detector: not tiling {fw}x{fh} frames: {regions} model runs of {ms:.1} ms = {need_ms:.0} ms, over the {budget_ms:.0} ms frame budget (tile = \"auto\"); whole frames only");
         }
-        self.tiled_sizes.push(((fw, fh), on));
+        self.tiled_sizes.push(((fw, fh), governor));
         on
+    }
+
+    /// Under `tile = "auto"`, tells the governor of `fw x fh` frames that one took `elapsed`
+    /// for `runs` model runs, and logs a change it makes.
+    fn revise_tiling(&mut self, fw: u32, fh: u32, runs: usize, elapsed: Duration) {
+        let budget_us = match self.config.tiling.and_then(|t| t.frame_budget_us) {
+            Some(b) => b as f64,
+            None => return,
+        };
+        let Some((_, g)) = self.tiled_sizes.iter_mut().find(|(s, _)| *s == (fw, fh)) else {
+            return;
+        };
+        let budget_ms = budget_us / 1000.0;
+        match g.observe(runs, elapsed.as_secs_f64() * 1e6) {
+            Some(TileSwitch::Stopped { run_us, need_us }) => {
+                tracing::info!(frame_w = fw, frame_h = fh, "detector: tiling of {fw}x{fh} frames stopped: in flight a model run takes {:.1} ms, so a tiled frame's runs would take {:.0} ms, over the {budget_ms:.0} ms frame budget (tile = \"auto\"); whole frames until they fit again", run_us / 1000.0, need_us / 1000.0);
+            }
+            Some(TileSwitch::Resumed { run_us, need_us }) => {
+                tracing::info!(frame_w = fw, frame_h = fh, "detector: tiling of {fw}x{fh} frames resumed: in flight a model run takes {:.1} ms, so a tiled frame's runs take {:.0} ms, within the {budget_ms:.0} ms frame budget (tile = \"auto\")", run_us / 1000.0, need_us / 1000.0);
+            }
+            None => {}
+        }
     }
 
     /// The model's interface (input size, classes, layout).
@@ -414,10 +441,24 @@ impl Detector {
         &mut self,
         frame: &RgbImage,
     ) -> Result<(Vec<Detection>, DetectTimings), DetectError> {
+        let start = Instant::now();
+        let (dets, timings, runs) = self.detect_runs(frame)?;
+        if runs > 0 {
+            let (fw, fh) = frame.dimensions();
+            self.revise_tiling(fw, fh, runs, start.elapsed());
+        }
+        Ok((dets, timings))
+    }
+
+    /// [`Detector::detect_timed`], and how many model runs the frame took.
+    fn detect_runs(
+        &mut self,
+        frame: &RgbImage,
+    ) -> Result<(Vec<Detection>, DetectTimings, usize), DetectError> {
         let mut timings = DetectTimings::default();
         let (fw, fh) = frame.dimensions();
         if fw == 0 || fh == 0 {
-            return Ok((Vec::new(), timings));
+            return Ok((Vec::new(), timings, 0));
         }
         let (in_w, in_h) = (self.info.input_width_px, self.info.input_height_px);
         let mut whole_frame_scale = None;
@@ -439,9 +480,11 @@ impl Detector {
             }
         };
         let tiled = regions.len() > 1;
+        let runs = regions.len();
         if tiled {
             if let Some(tiles) = self.tile_detector.as_mut() {
-                return tiles.detect_timed(frame);
+                let (dets, timings) = tiles.detect_timed(frame)?;
+                return Ok((dets, timings, runs));
             }
         }
         let mut candidates = Vec::new();
@@ -507,7 +550,7 @@ impl Detector {
         }
         dets.truncate(self.config.max_detections);
         timings.postprocess += t2.elapsed();
-        Ok((dets, timings))
+        Ok((dets, timings, runs))
     }
 
     /// Runs the session on the current input tensor and hands the first

@@ -51,7 +51,8 @@ pub struct TilingConfig {
     /// Also run the whole frame letterboxed (for objects larger than a tile).
     pub include_full_frame: bool,
     /// Tile only frames whose model runs (tiles, plus the whole frame) fit in this many
-    /// microseconds at the model run time measured at load (`tile = "auto"`: the frame
+    /// microseconds: at the model run time measured at load for the first frame of a size,
+    /// then as the frames themselves run ([`TileGovernor`]) (`tile = "auto"`: the frame
     /// period of `tile_min_fps`); `None` tiles every frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_budget_us: Option<u64>,
@@ -129,6 +130,110 @@ pub fn tile_grid(width: u32, height: u32, tile_w: u32, tile_h: u32, overlap: u32
         }
     }
     out
+}
+
+/// Under `tile = "auto"`: whether the frames of one size are tiled, decided at the first
+/// frame from the model run time measured at load, then revised in flight from the time
+/// each frame's model runs took.
+///
+/// A start-up measurement can be wrong for the flight: on the two-drone SITL bench
+/// (`scripts/bench_sitl_fleet.sh`) one mgmot measured 13.2 ms a run before the machine was
+/// fully loaded, tiled its 1280x720 frames (5 runs, 66 ms of a 67 ms budget), and then took
+/// 130 ms a frame: 1,070 of 3,871 frames processed, one object tracked of six. The smoothed
+/// run time of the frames themselves now stops tiling when a tiled frame's runs would exceed
+/// the budget by [`TileGovernor::STOP_ABOVE`], and resumes it when they would fit within
+/// [`TileGovernor::RESUME_BELOW`] of it; at least [`TileGovernor::MIN_FRAMES_BETWEEN`]
+/// frames apart, so that it does not flap. Pure: the detector feeds it the times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileGovernor {
+    budget_us: f64,
+    /// Model runs of a tiled frame of this size (tiles, plus the whole frame).
+    runs_tiled: usize,
+    /// Smoothed time of one model run (µs), with the frame's own preprocessing and decoding.
+    run_us: f64,
+    on: bool,
+    may_resume: bool,
+    frames_since_switch: u32,
+}
+
+/// A change [`TileGovernor::observe`] made, with the smoothed run time that made it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TileSwitch {
+    /// Tiling stopped: a tiled frame's runs would now take `need_us`.
+    Stopped {
+        /// Smoothed time of one model run (µs).
+        run_us: f64,
+        /// That times the runs of a tiled frame (µs).
+        need_us: f64,
+    },
+    /// Tiling resumed: a tiled frame's runs would now take `need_us`.
+    Resumed {
+        /// Smoothed time of one model run (µs).
+        run_us: f64,
+        /// That times the runs of a tiled frame (µs).
+        need_us: f64,
+    },
+}
+
+impl TileGovernor {
+    /// Weight of each frame's run time in the smoothed one (about the last 10 frames).
+    pub const SMOOTHING: f64 = 0.1;
+    /// Tiling stops when a tiled frame's runs would take this much of the budget.
+    pub const STOP_ABOVE: f64 = 1.15;
+    /// Tiling resumes when a tiled frame's runs would take at most this much of the budget.
+    pub const RESUME_BELOW: f64 = 0.85;
+    /// Frames between two changes, at least (2 s at 15 frames/s).
+    pub const MIN_FRAMES_BETWEEN: u32 = 30;
+
+    /// The decision at the first frame: tiled when `runs_tiled` runs of `run_us` (measured at
+    /// load) fit in `budget_us`. `may_resume: false` keeps an untiled size untiled (the tile
+    /// model was not loaded, as tiling was ruled out at load).
+    pub fn new(budget_us: u64, runs_tiled: usize, run_us: u64, may_resume: bool) -> Self {
+        let need = run_us.saturating_mul(runs_tiled as u64);
+        Self {
+            budget_us: budget_us as f64,
+            runs_tiled: runs_tiled.max(1),
+            run_us: run_us as f64,
+            on: need <= budget_us,
+            may_resume,
+            frames_since_switch: 0,
+        }
+    }
+
+    /// Whether this size's frames are tiled now.
+    pub fn tiles(&self) -> bool {
+        self.on
+    }
+
+    /// A tiled frame's runs at the smoothed run time (µs).
+    pub fn need_us(&self) -> f64 {
+        self.run_us * self.runs_tiled as f64
+    }
+
+    /// One frame took `elapsed_us` for `runs` model runs (`runs_tiled` when it was tiled,
+    /// 1 when not): the run time is smoothed, and tiling stops or resumes when due.
+    pub fn observe(&mut self, runs: usize, elapsed_us: f64) -> Option<TileSwitch> {
+        if runs == 0 || !elapsed_us.is_finite() || elapsed_us < 0.0 {
+            return None;
+        }
+        self.run_us += Self::SMOOTHING * (elapsed_us / runs as f64 - self.run_us);
+        self.frames_since_switch = self.frames_since_switch.saturating_add(1);
+        if self.frames_since_switch < Self::MIN_FRAMES_BETWEEN {
+            return None;
+        }
+        let (run_us, need_us) = (self.run_us, self.need_us());
+        if self.on && need_us > self.budget_us * Self::STOP_ABOVE {
+            self.on = false;
+            self.frames_since_switch = 0;
+            return Some(TileSwitch::Stopped { run_us, need_us });
+        }
+        if !self.on && self.may_resume && need_us <= self.budget_us * Self::RESUME_BELOW {
+            self.on = true;
+            self.frames_since_switch = 0;
+            return Some(TileSwitch::Resumed { run_us, need_us });
+        }
+        None
+    }
 }
 
 #[cfg(test)]
@@ -283,5 +388,65 @@ mod tests {
                 }
             }
         }
+    }
+    #[test]
+    fn the_governor_starts_from_the_load_time_measurement() {
+        // 5 runs of 13 ms = 65 ms in a 67 ms budget: tiled; of 14 ms = 70 ms: not.
+        assert!(TileGovernor::new(67_000, 5, 13_000, true).tiles());
+        assert!(!TileGovernor::new(67_000, 5, 14_000, true).tiles());
+    }
+
+    #[test]
+    fn the_governor_stops_tiling_when_the_frames_run_slower_and_resumes_when_faster() {
+        // The fleet bench's case: 13.2 ms a run at load, 26 ms a run in flight.
+        let mut g = TileGovernor::new(67_000, 5, 13_200, true);
+        assert!(g.tiles());
+        let mut stopped_at = None;
+        for k in 1..=200u32 {
+            if let Some(sw) = g.observe(5, 130_000.0) {
+                assert!(
+                    matches!(sw, TileSwitch::Stopped { need_us, .. } if need_us > 67_000.0 * 1.15)
+                );
+                stopped_at = Some(k);
+                break;
+            }
+        }
+        // Not before MIN_FRAMES_BETWEEN frames, and soon after.
+        assert_eq!(stopped_at, Some(TileGovernor::MIN_FRAMES_BETWEEN));
+        assert!(!g.tiles());
+        // Whole frames (1 run) at 26 ms: 5 x 26 = 130 ms, still over; no change.
+        for _ in 0..300 {
+            assert_eq!(g.observe(1, 26_000.0), None);
+        }
+        // The machine frees up: 8 ms a run, 40 ms a tiled frame; tiling resumes.
+        let resumed = (0..300).find_map(|_| g.observe(1, 8_000.0));
+        assert!(
+            matches!(resumed, Some(TileSwitch::Resumed { need_us, .. }) if need_us <= 67_000.0 * 0.85)
+        );
+        assert!(g.tiles());
+    }
+
+    #[test]
+    fn the_governor_does_not_flap_near_the_budget() {
+        // Tiled frames at 95-105 % of the budget, alternating: inside the hysteresis band.
+        let mut g = TileGovernor::new(67_000, 5, 13_000, true);
+        for k in 0..1000 {
+            let frame_us = if k % 2 == 0 { 63_650.0 } else { 70_350.0 };
+            assert_eq!(g.observe(5, frame_us), None, "frame {k}");
+        }
+        assert!(g.tiles());
+    }
+
+    #[test]
+    fn the_governor_never_resumes_a_size_it_may_not() {
+        let mut g = TileGovernor::new(67_000, 5, 20_000, false);
+        assert!(!g.tiles());
+        for _ in 0..500 {
+            assert_eq!(g.observe(1, 1_000.0), None);
+        }
+        assert!(!g.tiles());
+        // And ignores what it cannot use.
+        assert_eq!(g.observe(0, 1_000.0), None);
+        assert_eq!(g.observe(1, f64::NAN), None);
     }
 }
