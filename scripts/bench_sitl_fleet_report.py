@@ -9,7 +9,8 @@ renderer's truth) and OUT/ground/fleet.jsonl (the shared mgmot ground's recordin
   within the gate at that moment; fused ids per object over the objects both drones reported
   (each fused id counted for the object it matched most often, as core's fuse::score);
 - the position error where fusion has two drones to fuse: the picture updates at which both
-  drones had reported that object within 0.5 s, fused against each drone's nearest report.
+  drones had reported that object within the 0.5 s before; the fused track and each drone's
+  latest report (what that drone alone would show) against the truth at that update.
 
 Both renderers place the one scenario around the same home, so each object has one id in
 both truths; a picture's UTC time is mapped onto each drone's scenario clock through that
@@ -41,7 +42,10 @@ def drone(dialect, out, sysid):
     tracks = [(t, 0, m) for t, m in router
               if bench.sender(m) == mgmot and m.get_type() == "MGMOT_TRACK" and m.state == 0
               and m.flags & bench.GEO_VALID and not m.flags & PROVISIONAL]
-    recs = [r for r in bench.check_tracks(truth, tracks) if r.get("matched")]
+    recs = bench.check_tracks(truth, tracks)
+    for rec, (_, _, m) in zip(recs, tracks):
+        rec["lat"], rec["lon"] = m.lat * 1e-7, m.lon * 1e-7
+    recs = [r for r in recs if r.get("matched")]
     utc = sorted((m.time_unix_usec, m.time_boot_ms * 1000) for t, m in router
                  if m.get_type() == "SYSTEM_TIME" and bench.sender(m) == autopilot and m.time_unix_usec > 0)
     return {"truth": truth, "recs": recs, "utc": utc, "utc_keys": [u[0] for u in utc],
@@ -134,12 +138,16 @@ def main():
             per[oid] = per.get(oid, 0) + 1
             same = f["properties"].get("class_id") == bench.CLASS_IDS.get(cls)
             classes["right" if same else "wrong"] += 1
-            # Both drones' reports of this object nearest this update, within PAIR_S.
+            # What each drone alone showed at this update: its latest report of this object,
+            # if that arrived within PAIR_S before, against the truth at this update (as the
+            # fused track is scored).
             near = []
+            u = unix_ms / 1000
             for d in drones:
-                cand = [r for r in d["recs"] if r["object_id"] == oid and abs(r["arrival"] - unix_ms / 1000) <= PAIR_S]
+                cand = [r for r in d["recs"] if r["object_id"] == oid and 0 <= u - r["arrival"] <= PAIR_S]
                 if cand:
-                    near.append(min(cand, key=lambda r: abs(r["arrival"] - unix_ms / 1000))["error_m"])
+                    last = max(cand, key=lambda r: r["arrival"])
+                    near.append(error_to(last["lat"], last["lon"], states[oid]))
             if len(near) == 2:
                 paired.append((err, near[0], near[1]))
     identity = {}
