@@ -80,14 +80,6 @@ def truth_at(drones, unix_ms):
     return states
 
 
-def error_to(lat, lon, st):
-    """Distance (m) from (lat, lon) to an object state of bench.object_state."""
-    import math
-    n, e, _, _, ref = st
-    mlat, mlon = bench.m_per_deg(ref[3])
-    return math.hypot(ref[1] + (lat - ref[3]) * mlat - n, ref[2] + (lon - ref[4]) * mlon - e)
-
-
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -128,7 +120,7 @@ def main():
             continue
         for f in tracked:
             lon, lat = f["geometry"]["coordinates"][:2]
-            best = min(((error_to(lat, lon, st), oid, st[3]) for oid, st in states.items()), default=None)
+            best = min(((bench.distance_to_state(lat, lon, st), oid, st[3]) for oid, st in states.items()), default=None)
             if best is None or best[0] > bench.GATE_M:
                 unmatched += 1
                 continue
@@ -147,12 +139,10 @@ def main():
                 cand = [r for r in d["recs"] if r["object_id"] == oid and 0 <= u - r["arrival"] <= PAIR_S]
                 if cand:
                     last = max(cand, key=lambda r: r["arrival"])
-                    near.append(error_to(last["lat"], last["lon"], states[oid]))
+                    near.append(bench.distance_to_state(last["lat"], last["lon"], states[oid]))
             if len(near) == 2:
                 paired.append((err, near[0], near[1]))
-    identity = {}
-    for fid, per in matched_to.items():
-        identity.setdefault(max(per, key=per.get), set()).add(fid)
+    identity = bench.identities(matched_to)
     per_both = [len(identity.get(o, set())) for o in both if o in identity]
     fused = {
         "pictures": len(lines), "fused_ids": len(fused_ids), "tracked_samples_matched": len(errors),

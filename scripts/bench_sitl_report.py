@@ -158,6 +158,23 @@ def object_state(obj, t):
     return n, e, vel, near[0][5], near[0]
 
 
+def distance_to_state(lat, lon, st):
+    """Distance (m) from (lat, lon) to an object state of object_state: the point is put in
+    the scenario's north/east through the state's own sample (flat earth over metres)."""
+    n, e, _, _, ref = st
+    mlat, mlon = m_per_deg(ref[3])
+    return math.hypot(ref[1] + (lat - ref[3]) * mlat - n, ref[2] + (lon - ref[4]) * mlon - e)
+
+
+def identities(matched_to):
+    """Object id -> the fused ids whose identity it is: each fused id is the object it matched
+    most often (as core's fuse::score). `matched_to`: fused id -> object id -> samples."""
+    identity = {}
+    for fid, per in matched_to.items():
+        identity.setdefault(max(per, key=per.get), set()).add(fid)
+    return identity
+
+
 def check_tracks(truth, tracks):
     """Each (arrival, boot, MGMOT_TRACK) against the truth: a dict per message."""
     out = []
@@ -177,13 +194,9 @@ def check_tracks(truth, tracks):
             st = object_state(samples, t)
             if st is None:
                 continue
-            n, e, vel, cls, ref = st
-            mlat, mlon = m_per_deg(ref[3])
-            tn = ref[1] + (lat - ref[3]) * mlat
-            te = ref[2] + (lon - ref[4]) * mlon
-            d = math.hypot(tn - n, te - e)
+            d = distance_to_state(lat, lon, st)
             if best is None or d < best[0]:
-                best = (d, oid, vel, cls)
+                best = (d, oid, st[2], st[3])
         if best is None or best[0] > GATE_M:
             rec["matched"] = False
             rec["why"] = "no_truth_within_2s" if best is None else "beyond_gate"
@@ -410,10 +423,7 @@ def ground_section(out, router, report):
                 for oid, st in states.items():
                     if st is None:
                         continue
-                    n_per, e_per = m_per_deg(st[4][3])
-                    dn = (lat - st[4][3]) * n_per - (st[0] - st[4][1])
-                    de = (lon - st[4][4]) * e_per - (st[1] - st[4][2])
-                    d = math.hypot(dn, de)
+                    d = distance_to_state(lat, lon, st)
                     if d <= GATE_M and (best is None or d < best[0]):
                         best = (d, oid, st[3])
                 if best is None:
@@ -426,12 +436,8 @@ def ground_section(out, router, report):
                 same = f["properties"].get("class_id") == CLASS_IDS.get(best[2])
                 classes["right" if same else "wrong"] += 1
         ing = stats.get("ingest", {})
-        # Each fused id's identity is the object it matched most often (as core's fuse::score);
-        # "any": every fused id ever nearest to the object.
-        identity = {}
-        for fid, per in matched_to.items():
-            oid = max(per, key=per.get)
-            identity.setdefault(oid, set()).add(fid)
+        # Each fused id's identity (identities); "any": every fused id ever nearest to the object.
+        identity = identities(matched_to)
         per_obj = [len(v) for v in identity.values()]
         any_obj = [len(v) for v in ids_of.values()]
         fig = {

@@ -397,14 +397,10 @@ impl Detector {
     /// Under `tile = "auto"`, tells the governor of `fw x fh` frames that one took `elapsed`
     /// for `runs` model runs, and logs a change it makes.
     fn revise_tiling(&mut self, fw: u32, fh: u32, runs: usize, elapsed: Duration) {
-        let budget_us = match self.config.tiling.and_then(|t| t.frame_budget_us) {
-            Some(b) => b as f64,
-            None => return,
-        };
         let Some((_, g)) = self.tiled_sizes.iter_mut().find(|(s, _)| *s == (fw, fh)) else {
             return;
         };
-        let budget_ms = budget_us / 1000.0;
+        let budget_ms = g.budget_us() / 1000.0;
         match g.observe(runs, elapsed.as_secs_f64() * 1e6) {
             Some(TileSwitch::Stopped { run_us, need_us }) => {
                 tracing::info!(frame_w = fw, frame_h = fh, "detector: tiling of {fw}x{fh} frames stopped: in flight a model run takes {:.1} ms, so a tiled frame's runs would take {:.0} ms, over the {budget_ms:.0} ms frame budget (tile = \"auto\"); whole frames until they fit again", run_us / 1000.0, need_us / 1000.0);

@@ -205,6 +205,11 @@ impl TileGovernor {
         self.on
     }
 
+    /// The frame budget (µs).
+    pub fn budget_us(&self) -> f64 {
+        self.budget_us
+    }
+
     /// A tiled frame's runs at the smoothed run time (µs).
     pub fn need_us(&self) -> f64 {
         self.run_us * self.runs_tiled as f64
