@@ -11,9 +11,11 @@
 #   MGMOT_TRAIN_FT_MINUTES  class-balanced fine-tune, stage 2        [15]
 #   MGMOT_TRAIN_SCALE_MINUTES  fine-tune at the runtime's scale, stage 3 [45]
 #   MGMOT_TRAIN_MORE_MINUTES  the same on twice the frames, stage 4    [50]
+#   MGMOT_TRAIN_STAGE6_MINUTES  stage 4 again on three times the frames, stage 6 [50]
 #   MGMOT_TRAIN_RESUME   1 = keep an existing stage-1 checkpoint       [0]
 #   MGMOT_TRAIN_FRAMES   minimum training frames to render          [5000]
 #   MGMOT_TRAIN_EXTRA_FRAMES  minimum frames of further training seeds, for stage 4 [5000]
+#   MGMOT_TRAIN_EXTRA2_FRAMES  minimum frames of the seeds after those, for stage 6 [5000]
 #   MGMOT_TRAIN_PER_SEQ  frames kept per rendered sequence           [40]
 #   MGMOT_TRAIN_THREADS  torch threads                               [1]
 #   MGMOT_TRAIN_INIT_REV the commit whose models/mgmot-det-fp32.onnx starts training, or none [8817652]
@@ -26,7 +28,8 @@
 #   MGMOT_TRAIN_STOP     stop after this step: data | train          [run all]
 # Seeds and splits (renders): training uses seeds 1, 2, ... (every scenario per seed) until
 # MGMOT_TRAIN_FRAMES frames exist (train/), then the next seeds until MGMOT_TRAIN_EXTRA_FRAMES
-# more exist (train-extra/, stage 4 only; seeds 13-24 at the defaults); tuning seeds 50001 and 50002 (training conditions, for
+# more exist (train-extra/, stages 4 and 6; seeds 13-24 at the defaults), then the next seeds
+# until MGMOT_TRAIN_EXTRA2_FRAMES more exist (train-extra2/, stage 6 only; seeds 25-36); tuning seeds 50001 and 50002 (training conditions, for
 # choosing between recipes); held-out seeds 100001 and 100002 (same conditions as
 # training, disjoint seeds); held-out conditions: seeds 200001-200003, each variant drawn from
 # one condition training never saw (rough sea, low sun, the 80-100 m altitude band; see
@@ -43,6 +46,8 @@ TILE_MINUTES="${MGMOT_TRAIN_TILE_MINUTES:-30}"
 TILE_SEEDS="${MGMOT_TRAIN_TILE_SEEDS:-20}"
 FRAMES="${MGMOT_TRAIN_FRAMES:-5000}"
 EXTRA_FRAMES="${MGMOT_TRAIN_EXTRA_FRAMES:-5000}"
+EXTRA2_FRAMES="${MGMOT_TRAIN_EXTRA2_FRAMES:-5000}"
+STAGE6_MINUTES="${MGMOT_TRAIN_STAGE6_MINUTES:-50}"
 PER_SEQ="${MGMOT_TRAIN_PER_SEQ:-40}"
 RUN="$HERE/runs/sim"
 DATA="$HERE/data/sim"
@@ -67,6 +72,7 @@ if [[ -n "${MGMOT_TRAIN_DATA:-}" ]]; then
     "$PY" -c "import data, sys; s = data.load_seadronessee(sys.argv[1], 'train'); print(f'{len(s)} training frames in', sys.argv[1])" "$MGMOT_TRAIN_DATA"
     TRAIN_DATA="$MGMOT_TRAIN_DATA"
     MORE_DATA=()
+    MORE2_DATA=()
     EVAL=("val:$MGMOT_TRAIN_DATA")
 else
     # 2. Data: JPEG sequences rendered by mgmot-sim (1280x720, SeaDronesSee-style JSON).
@@ -81,7 +87,7 @@ else
         [[ -f "$out/annotations.json" ]] && return 0
         local toml="$DATA/scenarios/${2}_s$3.toml" every variant=$1 format=jpg
         # tuning seeds and further training seeds: variants of the training conditions
-        [[ $1 == tuning || $1 == train-extra ]] && variant=train
+        [[ $1 == tuning || $1 == train-extra || $1 == train-extra2 ]] && variant=train
         # the held-out seeds again, as lossless PNG (what an uncompressed camera delivers)
         [[ $1 == heldout-lossless ]] && variant=heldout format=png
         # and the tuning seeds, to choose recipes for uncompressed frames
@@ -112,6 +118,7 @@ else
     render_until train "$FRAMES" 1
     # The further seeds follow the training ones, also when train/ was complete before this run.
     render_until train-extra "$EXTRA_FRAMES" $(( $(last_seed train) + 1 ))
+    render_until train-extra2 "$EXTRA2_FRAMES" $(( $(last_seed train-extra) + 1 ))
     if (( TILE_MINUTES > 0 )); then
         for seed in $(seq 1 "$TILE_SEEDS"); do
             for sc in "${SCENARIOS[@]}"; do render train-lossless "$sc" "$seed"; done
@@ -125,10 +132,11 @@ else
         # training recipes is done on these, so that the held-out figures stay unseen.
         for seed in 50001 50002; do render tuning "$sc" "$seed"; render tuning-lossless "$sc" "$seed"; done
     done
-    echo "frames: train $(count_frames "$DATA/train"), further training $(count_frames "$DATA/train-extra"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
+    echo "frames: train $(count_frames "$DATA/train"), further training $(count_frames "$DATA/train-extra") and $(count_frames "$DATA/train-extra2"), tuning $(count_frames "$DATA/tuning"), held-out seeds $(count_frames "$DATA/heldout"), held-out conditions $(count_frames "$DATA/conditions")"
     "$PY" scenarios.py manifest --data "$DATA" --out "$RUN/manifest.json"
     TRAIN_DATA="$DATA/train"
     MORE_DATA=("$DATA/train-extra")
+    MORE2_DATA=("$DATA/train-extra" "$DATA/train-extra2")
     EVAL=("tuning:$DATA/tuning" "tuning-lossless:$DATA/tuning-lossless" "heldout:$DATA/heldout"
         "conditions:$DATA/conditions" "heldout-lossless:$DATA/heldout-lossless")
 fi
@@ -161,12 +169,22 @@ fi
 # 3d. Stage 3's recipe again at half its learning rate, on the training frames plus as many
 #     again from further seeds (renders; a real dataset's train split alone).
 "$PY" train.py --data "$TRAIN_DATA" "${MORE_DATA[@]}" --crop 192 --batch 16 --threads "$PY_THREADS" --minutes "$MORE_MINUTES" \
-    --seed 4 --lr 5e-4 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage3.pt" --out "$RUN/tinydet.pt"
+    --seed 4 --lr 5e-4 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 --init "$RUN/tinydet-stage3.pt" --out "$RUN/tinydet-stage4.pt"
+"$PY" export.py --ckpt "$RUN/tinydet-stage4.pt" --size 448,800 --out "$RUN/stage4-fp32.onnx" \
+    --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
+# 3e. Stage 4's recipe once more, warm-started from its export, on three times the frames
+#     (seeds 1-36; a real dataset's train split alone), at 3e-4 (models/README.md, "What it was
+#     trained on", item 6; the shipped run had two torch threads).
+"$PY" train.py --data "$TRAIN_DATA" "${MORE2_DATA[@]}" --crop 192 --batch 16 --threads "$PY_THREADS" \
+    --minutes "$STAGE6_MINUTES" --seed 8 --lr 3e-4 --balance 0.6 --scales 0.45,1.0 --whole-frame 0 \
+    --init-onnx "$RUN/stage4-fp32.onnx" --out "$RUN/tinydet.pt"
 [[ "${MGMOT_TRAIN_STOP:-}" == train ]] && exit 0
 "$PY" export.py --ckpt "$RUN/tinydet.pt" --size 448,800 --out "$RUN/mgmot-det-fp32.onnx" \
     --description "mgmot TinyDet five-class SeaDronesSee detector, trained on mgmot-sim frames"
-"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 384
-# 5. The tile model (renders only): stage 4 fine-tuned on the training seeds rendered again as
+# int8: static QDQ calibrated on 320 training frames, the count at which tract and ONNX Runtime
+# agree exactly on the parity test's fixtures (models/README.md, "Backend parity").
+"$PY" quantize.py --fp32 "$RUN/mgmot-det-fp32.onnx" --out "$RUN/mgmot-det-int8.onnx" --data "$TRAIN_DATA" --count 320
+# 5. The tile model (renders only): stage 6's model fine-tuned on the training seeds rendered again as
 #    lossless PNG, half the frames JPEG-compressed before scaling and 30 % of the views at scale
 #    1, what a tile of an uncompressed camera's frame shows. `mgmot run` runs it on the frames it
 #    tiles (`[detector] tile_model`); models/README.md, "The tile model". Its int8 model is
@@ -213,7 +231,7 @@ if [[ "${MGMOT_TRAIN_INSTALL:-0}" == 1 ]]; then
 import json, sys
 run = sys.argv[1]
 import os
-stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet-stage3'), (4, 'tinydet'), (5, 'tinydet-tiles')) if i < 5 or os.path.exists(f'{run}/{n}.log.json')}
+stages = {f'stage{i}': json.load(open(f'{run}/{n}.log.json')) for i, n in ((1, 'tinydet-stage1'), (2, 'tinydet-stage2'), (3, 'tinydet-stage3'), (4, 'tinydet-stage4'), (5, 'tinydet-tiles'), (6, 'tinydet')) if i != 5 or os.path.exists(f'{run}/{n}.log.json')}
 json.dump(stages, open(sys.argv[2], 'w'), indent=1)
 " "$RUN" "$ROOT/models/training-log.json"
     [[ -f "$RUN/manifest.json" ]] && cp "$RUN/manifest.json" "$ROOT/models/data-manifest.json"
